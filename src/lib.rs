@@ -1,0 +1,10 @@
+//! drape: cloth animation authoring.
+//!
+//! A garment (OBJ or generated) and a fabric preset go in; an implicit
+//! mass-spring solver with exact contact handling simulates it against
+//! colliders; the baked frames come out as OBJ sequences and point caches.
+//! The physics in [`sim`] is pure and deterministic: the same scene and
+//! settings give the same bake, bit for bit, at any thread count.
+
+pub mod mesh;
+pub mod sim;

@@ -1,0 +1,21 @@
+//! The physics: pure, deterministic, no I/O, no GPU, no UI.
+//!
+//! Plain data in ([`cloth::Cloth`], [`step::Pin`], [`colliders::Collider`],
+//! [`fabric::Fabric`]), plain data out (positions, velocities,
+//! [`step::StepReport`]). Results are bit-identical at any thread count: every
+//! parallel loop writes disjoint outputs and every reduction sums fixed chunks in
+//! a fixed order.
+
+pub mod cloth;
+pub mod colliders;
+pub mod contact;
+pub mod fabric;
+pub mod forces;
+pub mod implicit;
+pub mod motion;
+pub mod parallel;
+pub mod pcg;
+pub mod sparse;
+pub mod step;
+
+pub use step::{Pin, SimError, Simulator, StepError, StepReport};

@@ -1,0 +1,398 @@
+//! The simulator: cloth state plus one explicit step pipeline.
+//!
+//! `Simulator::step(h)` runs, in order and each timed:
+//!
+//! 1. **springs**: every spring's force and system block (parallel);
+//! 2. **assembly**: the backward-Euler matrix and right-hand side (parallel);
+//! 3. **solve**: filtered PCG for the velocity change, pins prescribed;
+//! 4. **collisions**: each particle's path against the analytic colliders;
+//! 5. **finish**: pins placed exactly, finiteness check, commit, strain.
+//!
+//! A step that produces a non-finite value is not committed: the state stays
+//! as it was before the step and the error names the time and the particle.
+//! Buffers live in a workspace and are reused, so a running simulation does not
+//! allocate.
+
+use std::time::{Duration, Instant};
+
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+
+use super::cloth::{Cloth, SpringKind};
+use super::colliders::Collider;
+use super::contact::{ParticleSurface, StepWindow, resolve_particle};
+use super::implicit::{
+    AssemblyInput, ParticleCoefficients, SpringCoefficients, SystemBuffers, SystemLayout, assemble,
+    evaluate_springs, net_forces,
+};
+use super::motion::RigidMotion;
+use super::parallel::{self, CHUNK};
+use super::pcg::{self, PcgReport, PcgSettings, PcgWorkspace};
+
+/// A particle held by the scene: fixed where it starts, or carried by a motion.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pin {
+    /// Particle index.
+    pub vertex: u32,
+    /// Motion applied to its starting position; `None` holds it still.
+    pub motion: Option<RigidMotion>,
+}
+
+/// Problems that prevent building a simulator.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SimError {
+    /// Nothing to simulate.
+    #[error("the scene has no cloth particles")]
+    Empty,
+    /// A pin names a particle that does not exist.
+    #[error("a pin refers to particle {vertex}, but the cloth has {count} particles")]
+    PinOutOfRange {
+        /// The pinned index.
+        vertex: u32,
+        /// Number of particles.
+        count: usize,
+    },
+}
+
+/// A step that could not be completed.
+#[derive(Clone, Debug, thiserror::Error, PartialEq)]
+pub enum StepError {
+    /// A position or velocity became NaN or infinite.
+    #[error(
+        "the simulation became non-finite in the step ending at t = {time:.4} s (particle {particle}); the state before that step is kept"
+    )]
+    NonFinite {
+        /// End time of the failed step, s.
+        time: f64,
+        /// First offending particle.
+        particle: usize,
+    },
+}
+
+/// Wall time spent in each stage of a step (or summed over steps).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimings {
+    /// Spring forces and blocks.
+    pub springs: Duration,
+    /// Matrix and right-hand side.
+    pub assembly: Duration,
+    /// Linear solve.
+    pub solve: Duration,
+    /// Collision detection and response.
+    pub collisions: Duration,
+    /// Pins, checks, commit, strain.
+    pub finish: Duration,
+}
+
+impl StageTimings {
+    /// Sum of all stages.
+    pub fn total(&self) -> Duration {
+        self.springs + self.assembly + self.solve + self.collisions + self.finish
+    }
+
+    /// Stage-wise sum.
+    pub fn add(&mut self, other: &StageTimings) {
+        self.springs += other.springs;
+        self.assembly += other.assembly;
+        self.solve += other.solve;
+        self.collisions += other.collisions;
+        self.finish += other.finish;
+    }
+
+    /// Stage names and durations, in pipeline order.
+    pub fn stages(&self) -> [(&'static str, Duration); 5] {
+        [
+            ("springs", self.springs),
+            ("assembly", self.assembly),
+            ("solve", self.solve),
+            ("collisions", self.collisions),
+            ("finish", self.finish),
+        ]
+    }
+}
+
+/// What one step did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Time per stage.
+    pub timings: StageTimings,
+    /// Linear solver outcome.
+    pub solver: PcgReport,
+    /// Largest stretch-spring strain |l − l₀| / l₀ after the step.
+    pub max_strain: f64,
+    /// Mean stretch-spring strain after the step.
+    pub mean_strain: f64,
+    /// Particle-collider contacts handled.
+    pub contacts: u32,
+}
+
+/// Reusable buffers of a step.
+#[derive(Clone, Debug, Default)]
+struct Workspace {
+    system: SystemBuffers,
+    pcg: PcgWorkspace,
+    velocity_change: Vec<Vector3<f64>>,
+    next_x: Vec<Vector3<f64>>,
+    next_v: Vec<Vector3<f64>>,
+    contacts: Vec<u32>,
+    partials: Vec<f64>,
+}
+
+/// A cloth simulation: state, parameters, colliders and the step pipeline.
+#[derive(Clone, Debug)]
+pub struct Simulator {
+    cloth: Cloth,
+    layout: SystemLayout,
+    particles: ParticleCoefficients,
+    springs: SpringCoefficients,
+    surfaces: Vec<ParticleSurface>,
+    stretch_springs: Vec<u32>,
+    pins: Vec<Pin>,
+    pin_rest: Vec<Vector3<f64>>,
+    fixed: Vec<bool>,
+    colliders: Vec<Collider>,
+    settings: PcgSettings,
+    x: Vec<Vector3<f64>>,
+    v: Vec<Vector3<f64>>,
+    time: f64,
+    ws: Workspace,
+}
+
+impl Simulator {
+    /// A simulator at rest in the cloth's rest shape at time 0.
+    pub fn new(
+        cloth: Cloth,
+        pins: Vec<Pin>,
+        colliders: Vec<Collider>,
+        settings: PcgSettings,
+    ) -> Result<Self, SimError> {
+        let n = cloth.vertex_count();
+        if n == 0 {
+            return Err(SimError::Empty);
+        }
+        if let Some(pin) = pins.iter().find(|p| p.vertex as usize >= n) {
+            return Err(SimError::PinOutOfRange {
+                vertex: pin.vertex,
+                count: n,
+            });
+        }
+        let mut fixed = vec![false; n];
+        for pin in &pins {
+            fixed[pin.vertex as usize] = true;
+        }
+        let surfaces = (0..n)
+            .map(|i| {
+                let f = cloth.fabric_of(i);
+                ParticleSurface {
+                    thickness: f.thickness_m,
+                    friction: f.friction,
+                }
+            })
+            .collect();
+        let stretch_springs = (0..cloth.spring_count() as u32)
+            .filter(|&s| cloth.spring_kind[s as usize] == SpringKind::Stretch)
+            .collect();
+        Ok(Simulator {
+            layout: SystemLayout::new(&cloth),
+            particles: ParticleCoefficients::new(&cloth),
+            springs: SpringCoefficients::new(&cloth),
+            surfaces,
+            stretch_springs,
+            pin_rest: pins
+                .iter()
+                .map(|p| cloth.rest_positions[p.vertex as usize])
+                .collect(),
+            pins,
+            fixed,
+            colliders,
+            settings,
+            x: cloth.rest_positions.clone(),
+            v: vec![Vector3::zeros(); n],
+            time: 0.0,
+            cloth,
+            ws: Workspace::default(),
+        })
+    }
+
+    /// Current positions, m.
+    pub fn positions(&self) -> &[Vector3<f64>] {
+        &self.x
+    }
+
+    /// Current velocities, m/s.
+    pub fn velocities(&self) -> &[Vector3<f64>] {
+        &self.v
+    }
+
+    /// Simulated time, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The cloth (topology, masses, fabrics).
+    pub fn cloth(&self) -> &Cloth {
+        &self.cloth
+    }
+
+    /// The colliders.
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+
+    /// The pins.
+    pub fn pins(&self) -> &[Pin] {
+        &self.pins
+    }
+
+    /// Kinetic energy ½ Σ m v², J.
+    pub fn kinetic_energy(&self) -> f64 {
+        0.5 * self
+            .v
+            .iter()
+            .zip(&self.particles.mass)
+            .map(|(v, m)| m * v.norm_squared())
+            .sum::<f64>()
+    }
+
+    /// Force the pins exert on the cloth to hold it as it is now, N: the
+    /// negative of the net force (springs, bending, gravity, damping) on the
+    /// pinned particles.
+    pub fn pin_reaction(&self) -> Vector3<f64> {
+        let forces = net_forces(
+            &self.cloth,
+            &self.layout,
+            &self.particles,
+            &self.springs,
+            &self.x,
+            &self.v,
+        );
+        -self
+            .pins
+            .iter()
+            .map(|p| forces[p.vertex as usize])
+            .sum::<Vector3<f64>>()
+    }
+
+    /// Where pin `k` must be at time `t`, m.
+    fn pin_target(&self, k: usize, t: f64) -> Vector3<f64> {
+        let rest = self.pin_rest[k];
+        match &self.pins[k].motion {
+            Some(m) => (m.world_from_rest(t) * Point3::from(rest)).coords,
+            None => rest,
+        }
+    }
+
+    /// Advances by one backward-Euler step of `h` seconds.
+    pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
+        let n = self.x.len();
+        let window = StepWindow {
+            t0: self.time,
+            t1: self.time + h,
+        };
+        let mut clock = Instant::now();
+        let mut lap = || {
+            let now = Instant::now();
+            let elapsed = now - clock;
+            clock = now;
+            elapsed
+        };
+        let mut report = StepReport::default();
+
+        let input = AssemblyInput {
+            x: &self.x,
+            v: &self.v,
+            h,
+        };
+        evaluate_springs(&self.cloth, &self.springs, &input, &mut self.ws.system);
+        report.timings.springs = lap();
+        assemble(&self.layout, &self.particles, &input, &mut self.ws.system);
+        report.timings.assembly = lap();
+
+        self.ws.velocity_change.resize(n, Vector3::zeros());
+        for k in 0..self.pins.len() {
+            let i = self.pins[k].vertex as usize;
+            let target = self.pin_target(k, window.t1);
+            self.ws.velocity_change[i] = (target - self.x[i]) / h - self.v[i];
+        }
+        report.solver = pcg::solve(
+            &self.layout.pattern,
+            &self.ws.system.matrix,
+            &self.ws.system.rhs,
+            &self.fixed,
+            &mut self.ws.velocity_change,
+            self.settings,
+            &mut self.ws.pcg,
+        );
+        report.timings.solve = lap();
+
+        report.contacts = self.integrate_and_collide(window);
+        report.timings.collisions = lap();
+
+        for k in 0..self.pins.len() {
+            let i = self.pins[k].vertex as usize;
+            self.ws.next_x[i] = self.pin_target(k, window.t1);
+        }
+        let bad = |v: &[Vector3<f64>]| {
+            v.par_iter()
+                .position_first(|p| !p.iter().all(|c| c.is_finite()))
+        };
+        if let Some(particle) = bad(&self.ws.next_x).or_else(|| bad(&self.ws.next_v)) {
+            self.ws
+                .velocity_change
+                .iter_mut()
+                .for_each(|d| *d = Vector3::zeros());
+            return Err(StepError::NonFinite {
+                time: window.t1,
+                particle,
+            });
+        }
+        std::mem::swap(&mut self.x, &mut self.ws.next_x);
+        std::mem::swap(&mut self.v, &mut self.ws.next_v);
+        self.time = window.t1;
+        (report.max_strain, report.mean_strain) = self.strain();
+        report.timings.finish = lap();
+        Ok(report)
+    }
+
+    /// `v ← v + Δv`, `x ← x + h v` into the next-state buffers, then each free
+    /// particle against the colliders. Returns the contact count.
+    fn integrate_and_collide(&mut self, window: StepWindow) -> u32 {
+        let n = self.x.len();
+        let ws = &mut self.ws;
+        ws.next_x.resize(n, Vector3::zeros());
+        ws.next_v.resize(n, Vector3::zeros());
+        ws.contacts.resize(n, 0);
+        let (x, v, dv, fixed) = (&self.x, &self.v, &ws.velocity_change, &self.fixed);
+        let (colliders, surfaces) = (&self.colliders, &self.surfaces);
+        ws.next_x
+            .par_iter_mut()
+            .zip(ws.next_v.par_iter_mut())
+            .zip(ws.contacts.par_iter_mut())
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(i, ((next_x, next_v), contacts))| {
+                *next_v = v[i] + dv[i];
+                *next_x = x[i] + *next_v * window.h();
+                *contacts = if fixed[i] {
+                    0
+                } else {
+                    resolve_particle(&x[i], next_x, next_v, surfaces[i], colliders, window)
+                };
+            });
+        ws.contacts.par_iter().map(|&c| c as u64).sum::<u64>() as u32
+    }
+
+    /// Max and mean strain |l − l₀| / l₀ over the stretch springs.
+    fn strain(&mut self) -> (f64, f64) {
+        let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
+        let strain_of = |k: usize| {
+            let s = stretch[k] as usize;
+            let [a, b] = cloth.spring_ends[s];
+            let rest = cloth.rest_length[s];
+            ((x[a as usize] - x[b as usize]).norm() - rest).abs() / rest
+        };
+        let max = parallel::max(stretch.len(), strain_of);
+        let total = parallel::sum(stretch.len(), &mut self.ws.partials, strain_of);
+        (max, total / stretch.len().max(1) as f64)
+    }
+}
