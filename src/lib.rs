@@ -5,6 +5,13 @@
 //! colliders; the baked frames come out as OBJ sequences and point caches.
 //! The physics in [`sim`] is pure and deterministic: the same scene and
 //! settings give the same bake, bit for bit, at any thread count.
+//!
+//! Layers (arrows point down): the `drape` binary → [`bench`], [`bake`] →
+//! [`scene`] → [`io`], [`sim`] → [`mesh`].
 
+pub mod bake;
+pub mod bench;
+pub mod io;
 pub mod mesh;
+pub mod scene;
 pub mod sim;

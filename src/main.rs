@@ -1,1 +1,187 @@
-fn main() {}
+//! The `drape` command: parse, dispatch, map errors to exit codes
+//! (0 ok, 1 bad input, 2 internal failure, 130 cancelled by Ctrl-C).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use drape::bake::output::BakeFolder;
+use drape::bake::summary::BakeSummary;
+use drape::bake::{self, BakeError};
+use drape::bench;
+use drape::scene::Scene;
+use drape::scene::summary::summary;
+
+#[derive(Parser)]
+#[command(name = "drape", version, about = "Cloth animation: simulate garments on colliders, bake and export frames")]
+struct Cli {
+    /// Solver threads (default: one per core). Results are identical at any count.
+    #[arg(long, global = true)]
+    threads: Option<usize>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate a scene without a window and write its frames: OBJ sequence, PC2
+    /// point caches, summary.json.
+    Bake {
+        /// Scene file (TOML), e.g. assets/scenes/drape_sphere.toml.
+        scene: PathBuf,
+        /// Output folder (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Bake only the first N frames of the scene's range.
+        #[arg(long)]
+        frames: Option<usize>,
+    },
+    /// Validate a scene and its assets, and print what they contain.
+    Check {
+        /// Scene file (TOML).
+        scene: PathBuf,
+    },
+    /// Measure simulation speed (ms per frame, per stage) with strain, on the
+    /// standard scenes.
+    Bench {
+        /// Frames per case (default: each scene's full range).
+        #[arg(long)]
+        frames: Option<usize>,
+        /// Folder for bench.csv and bench.md.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+/// How a command failed, which decides the exit code.
+enum Failure {
+    /// Bad input: a file, a value, an unwritable output (exit 1).
+    Input(String),
+    /// The simulation or the program failed (exit 2).
+    Internal(String),
+    /// Ctrl-C (exit 130).
+    Cancelled(String),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    if let Some(threads) = cli.threads {
+        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(threads).build_global() {
+            eprintln!("error: cannot start {threads} threads: {e}");
+            return ExitCode::from(2);
+        }
+    }
+    let result = match cli.command {
+        Command::Bake { scene, out, frames } => run_bake(&scene, &out, frames),
+        Command::Check { scene } => run_check(&scene),
+        Command::Bench { frames, out } => run_bench(frames, out.as_deref()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Input(message)) => {
+            eprintln!("error: {message}");
+            ExitCode::from(1)
+        }
+        Err(Failure::Internal(message)) => {
+            eprintln!("error: {message}");
+            ExitCode::from(2)
+        }
+        Err(Failure::Cancelled(message)) => {
+            eprintln!("{message}");
+            ExitCode::from(130)
+        }
+    }
+}
+
+fn input(e: impl std::fmt::Display) -> Failure {
+    Failure::Input(e.to_string())
+}
+
+/// Loads a scene, printing its garments' warnings.
+fn load_scene(path: &Path) -> Result<Scene, Failure> {
+    let scene = Scene::load(path).map_err(input)?;
+    for g in &scene.garments {
+        for warning in g.report.warnings().iter().chain(&g.warnings) {
+            eprintln!("warning: garment '{}': {warning}", g.name);
+        }
+    }
+    Ok(scene)
+}
+
+fn run_check(path: &Path) -> Result<(), Failure> {
+    let scene = Scene::load(path).map_err(input)?;
+    scene.simulator().map_err(input)?;
+    print!("{}", summary(&scene));
+    println!("ok: the scene is valid");
+    Ok(())
+}
+
+fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failure> {
+    let scene = load_scene(path)?;
+    let frames = frames.map_or(scene.frame_count, |n| n.min(scene.frame_count));
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = cancel.clone();
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).map_err(|e| Failure::Internal(e.to_string()))?;
+
+    let mut folder = BakeFolder::create(out, &scene).map_err(input)?;
+    let bar = ProgressBar::new(frames as u64).with_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} frames  {msg}  eta {eta}")
+            .unwrap_or(ProgressStyle::default_bar()),
+    );
+    let (records, failure) = bake::run(&scene, frames, &cancel, |sim, record| {
+        folder.write_frame(record.frame, sim.time(), sim.positions())?;
+        if record.frame > 0 {
+            let ms = record.timings.total().as_secs_f64() * 1e3;
+            bar.set_message(format!("{ms:.1} ms/frame, strain {:.2} %", record.max_strain * 100.0));
+            bar.set_position(record.frame as u64);
+        }
+        Ok(())
+    })
+    .map_err(|e| match e {
+        BakeError::Start(_) | BakeError::Write(_) => input(e),
+        BakeError::Step { .. } => Failure::Internal(e.to_string()),
+    })?;
+    bar.finish_and_clear();
+
+    let cancelled = cancel.load(Ordering::Relaxed) && records.len() < frames;
+    let stopped = match (&failure, cancelled) {
+        (Some(e), _) => Some(e.to_string()),
+        (None, true) => Some("cancelled (Ctrl-C)".to_owned()),
+        (None, false) => None,
+    };
+    let summary = BakeSummary::new(&scene, &records, frames, stopped);
+    folder.finish(&summary).map_err(input)?;
+    println!(
+        "{} frames of '{}' in {}: median {:.1} ms/frame on {} threads, {:.1} CG iterations/step, max strain {:.2} %, {} contacts at most",
+        summary.frames,
+        scene.name,
+        out.display(),
+        summary.ms_per_frame_median,
+        summary.threads,
+        summary.cg_iterations_per_step_mean,
+        summary.max_strain * 100.0,
+        summary.contacts_max,
+    );
+    match (failure, cancelled) {
+        (Some(e), _) => Err(Failure::Internal(format!("{e} (frames before it are in {})", out.display()))),
+        (None, true) => {
+            Err(Failure::Cancelled(format!("cancelled: {} whole frames kept in {}", records.len() + 1, out.display())))
+        }
+        (None, false) => Ok(()),
+    }
+}
+
+fn run_bench(frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {
+    let results = bench::run_core(frames, |line| eprintln!("{line}")).map_err(|e| Failure::Internal(e.to_string()))?;
+    let table = bench::markdown_table(&results);
+    println!("{table}");
+    if let Some(dir) = out {
+        bench::write_results(dir, &results).map_err(input)?;
+        println!("wrote {}", dir.display());
+    }
+    Ok(())
+}

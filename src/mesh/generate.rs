@@ -19,34 +19,19 @@ pub fn grid(size_m: f64, resolution: usize) -> TriMesh {
     let positions = (0..n)
         .flat_map(|row| {
             (0..n).map(move |col| {
-                Vector3::new(
-                    -0.5 * size_m + col as f64 * spacing,
-                    0.0,
-                    -0.5 * size_m + row as f64 * spacing,
-                )
+                Vector3::new(-0.5 * size_m + col as f64 * spacing, 0.0, -0.5 * size_m + row as f64 * spacing)
             })
         })
         .collect();
     let uvs = (0..n)
-        .flat_map(|row| {
-            (0..n).map(move |col| [col as f32 / (n - 1) as f32, row as f32 / (n - 1) as f32])
-        })
+        .flat_map(|row| (0..n).map(move |col| [col as f32 / (n - 1) as f32, row as f32 / (n - 1) as f32]))
         .collect();
     let mut quads = Vec::with_capacity((n - 1) * (n - 1));
     for row in 0..n - 1 {
         for col in 0..n - 1 {
             // Counter-clockwise seen from +Y: (row, col) → (row+1, col) → (row+1, col+1) → (row, col+1).
-            let corners = [
-                index(row, col),
-                index(row + 1, col),
-                index(row + 1, col + 1),
-                index(row, col + 1),
-            ];
-            let quad = if (row + col) % 2 == 0 {
-                corners
-            } else {
-                [corners[1], corners[2], corners[3], corners[0]]
-            };
+            let corners = [index(row, col), index(row + 1, col), index(row + 1, col + 1), index(row, col + 1)];
+            let quad = if (row + col) % 2 == 0 { corners } else { [corners[1], corners[2], corners[3], corners[0]] };
             quads.push(quad);
         }
     }
@@ -72,10 +57,7 @@ pub fn tube(radius_m: f64, length_m: f64, around: usize, along: usize) -> TriMes
         .collect();
     let uv_columns = around + 1;
     let uvs = (0..along)
-        .flat_map(|ring| {
-            (0..uv_columns)
-                .map(move |k| [k as f32 / around as f32, ring as f32 / (along - 1) as f32])
-        })
+        .flat_map(|ring| (0..uv_columns).map(move |k| [k as f32 / around as f32, ring as f32 / (along - 1) as f32]))
         .collect();
     let vertex = |ring: usize, k: usize| (ring * around + k % around) as u32;
     let uv = |ring: usize, k: usize| (ring * uv_columns + k) as u32;
@@ -111,22 +93,12 @@ fn from_quads(
         Some(q) => q.iter().flat_map(|&q| split(q)).collect(),
         None => triangles.clone(),
     };
-    let part = Part {
-        name: name.to_owned(),
-        material: None,
-        first_triangle: 0,
-        triangle_count: triangles.len(),
-    };
+    let part = Part { name: name.to_owned(), material: None, first_triangle: 0, triangle_count: triangles.len() };
     TriMesh {
         positions,
         triangles,
         quads,
-        surface: Surface {
-            uvs,
-            triangle_uvs,
-            materials: Vec::new(),
-            parts: vec![part],
-        },
+        surface: Surface { uvs, triangle_uvs, materials: Vec::new(), parts: vec![part] },
     }
 }
 
@@ -168,27 +140,15 @@ mod tests {
         assert_eq!(mesh.vertex_count(), around * along);
         assert_eq!(mesh.surface.uvs.len(), (around + 1) * along);
         let topo = Topology::new(&mesh.triangles);
-        assert_eq!(
-            topo.boundary_edges(),
-            2 * around,
-            "only the two end rings are open"
-        );
+        assert_eq!(topo.boundary_edges(), 2 * around, "only the two end rings are open");
         assert_eq!(topo.inconsistent_windings, 0);
         for t in 0..mesh.triangles.len() {
             let [a, b, c] = mesh.triangle_corners(t);
             let centre = (a + b + c) / 3.0;
             let radial = Vector3::new(0.0, centre.y, centre.z);
-            assert!(
-                (b - a).cross(&(c - a)).dot(&radial) > 0.0,
-                "triangle {t} faces in"
-            );
+            assert!((b - a).cross(&(c - a)).dot(&radial) > 0.0, "triangle {t} faces in");
         }
-        let max_u = mesh
-            .surface
-            .triangle_uvs
-            .iter()
-            .flatten()
-            .map(|&i| mesh.surface.uvs[i as usize][0]);
+        let max_u = mesh.surface.triangle_uvs.iter().flatten().map(|&i| mesh.surface.uvs[i as usize][0]);
         assert_eq!(max_u.fold(0.0f32, f32::max), 1.0);
     }
 }

@@ -75,11 +75,7 @@ impl TriMesh {
     /// Corner positions of triangle `t`, metres.
     pub fn triangle_corners(&self, t: usize) -> [Vector3<f64>; 3] {
         let [a, b, c] = self.triangles[t];
-        [
-            self.positions[a as usize],
-            self.positions[b as usize],
-            self.positions[c as usize],
-        ]
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
     }
 
     /// Area of triangle `t`, square metres.
@@ -90,19 +86,31 @@ impl TriMesh {
 
     /// Total surface area, square metres.
     pub fn area(&self) -> f64 {
-        (0..self.triangles.len())
-            .map(|t| self.triangle_area(t))
-            .sum()
+        (0..self.triangles.len()).map(|t| self.triangle_area(t)).sum()
     }
 
     /// Axis-aligned bounds `(min, max)` of the vertices, metres; `None` when empty.
     pub fn bounds(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
         let first = *self.positions.first()?;
-        Some(
-            self.positions
-                .iter()
-                .fold((first, first), |(lo, hi), p| (lo.inf(p), hi.sup(p))),
-        )
+        Some(self.positions.iter().fold((first, first), |(lo, hi), p| (lo.inf(p), hi.sup(p))))
+    }
+
+    /// Reorders the vertices by `key` (stable: equal keys keep their order),
+    /// renumbering triangles and quads.
+    pub fn sort_vertices_by(&mut self, key: &[usize]) {
+        let mut order: Vec<usize> = (0..self.positions.len()).collect();
+        order.sort_by_key(|&v| key[v]);
+        let mut new_index = vec![0u32; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_index[old] = new as u32;
+        }
+        self.positions = order.iter().map(|&old| self.positions[old]).collect();
+        for tri in &mut self.triangles {
+            *tri = tri.map(|v| new_index[v as usize]);
+        }
+        for quad in &mut self.quads {
+            *quad = quad.map(|v| new_index[v as usize]);
+        }
     }
 
     /// Applies `world_from_model` (scale, then rotation, then translation) to every

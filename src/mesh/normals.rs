@@ -36,12 +36,8 @@ mod tests {
     #[test]
     fn normals_weight_triangles_by_area() {
         // Vertex 0 joins a large triangle facing +z and a small one facing +x.
-        let positions = [
-            Vector3::zeros(),
-            Vector3::new(2.0, 0.0, 0.0),
-            Vector3::new(0.0, 2.0, 0.0),
-            Vector3::new(0.0, 0.0, 0.1),
-        ];
+        let positions =
+            [Vector3::zeros(), Vector3::new(2.0, 0.0, 0.0), Vector3::new(0.0, 2.0, 0.0), Vector3::new(0.0, 0.0, 0.1)];
         let triangles = [[0, 1, 2], [0, 2, 3]];
         let n = vertex_normals(&positions, &triangles)[0];
         let expected = Vector3::new(0.2, 0.0, 4.0).normalize();

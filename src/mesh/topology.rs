@@ -61,22 +61,10 @@ impl Topology {
         let mut run_start = 0;
         while run_start < half_edges.len() {
             let (a, b, first) = half_edges[run_start];
-            let run_end = run_start
-                + half_edges[run_start..]
-                    .iter()
-                    .take_while(|h| (h.0, h.1) == (a, b))
-                    .count();
+            let run_end = run_start + half_edges[run_start..].iter().take_while(|h| (h.0, h.1) == (a, b)).count();
             let count = (run_end - run_start) as u32;
-            let second = if count >= 2 {
-                half_edges[run_start + 1].2
-            } else {
-                u32::MAX
-            };
-            let edge = Edge {
-                vertices: [a, b],
-                triangles: [first, second],
-                triangle_count: count,
-            };
+            let second = if count >= 2 { half_edges[run_start + 1].2 } else { u32::MAX };
+            let edge = Edge { vertices: [a, b], triangles: [first, second], triangle_count: count };
             if edge.is_interior() {
                 topology.add_hinge(triangles, &edge);
             }
@@ -95,10 +83,7 @@ impl Topology {
         }
         // Orient the hinge edge as the first triangle traverses it.
         let edge_dir = if forward_in_t0 { [a, b] } else { [b, a] };
-        self.hinges.push(Hinge {
-            edge: edge_dir,
-            opposite: [third_vertex(&t0, a, b), third_vertex(&t1, a, b)],
-        });
+        self.hinges.push(Hinge { edge: edge_dir, opposite: [third_vertex(&t0, a, b), third_vertex(&t1, a, b)] });
     }
 
     /// Number of edges shared by more than two triangles.
@@ -119,10 +104,7 @@ fn runs_forward(tri: &[u32; 3], a: u32, b: u32) -> bool {
 
 /// The corner of `tri` that is neither `a` nor `b`.
 fn third_vertex(tri: &[u32; 3], a: u32, b: u32) -> u32 {
-    tri.iter()
-        .copied()
-        .find(|&v| v != a && v != b)
-        .unwrap_or(tri[0])
+    tri.iter().copied().find(|&v| v != a && v != b).unwrap_or(tri[0])
 }
 
 #[cfg(test)]

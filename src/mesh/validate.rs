@@ -57,6 +57,9 @@ pub struct MeshReport {
     /// Vertices merged into a coincident earlier vertex (UV seams, group borders,
     /// duplicates in the file).
     pub welded_vertices: usize,
+    /// Distinct vertices of the source file at the position of another (counted
+    /// by the file reader; welded).
+    pub duplicate_vertices: usize,
     /// Zero-area triangles, removed.
     pub degenerate_triangles: usize,
     /// Vertices used by no triangle, removed.
@@ -71,11 +74,7 @@ pub struct MeshReport {
 impl MeshReport {
     /// True when nothing was found.
     pub fn is_clean(&self) -> bool {
-        *self
-            == MeshReport {
-                welded_vertices: self.welded_vertices,
-                ..Default::default()
-            }
+        *self == MeshReport { welded_vertices: self.welded_vertices, ..Default::default() }
     }
 
     /// One line per finding worth a warning (welding alone is normal and is not
@@ -87,22 +86,10 @@ impl MeshReport {
                 lines.push(format!("{count} {what}"));
             }
         };
-        add(
-            self.degenerate_triangles,
-            "degenerate (zero-area) triangle(s) removed",
-        );
-        add(
-            self.isolated_vertices,
-            "isolated vertex(es) used by no triangle removed",
-        );
-        add(
-            self.non_manifold_edges,
-            "non-manifold edge(s) (shared by 3+ triangles) kept without bending",
-        );
-        add(
-            self.inconsistent_windings,
-            "edge(s) with inconsistent triangle winding kept",
-        );
+        add(self.degenerate_triangles, "degenerate (zero-area) triangle(s) removed");
+        add(self.isolated_vertices, "isolated vertex(es) used by no triangle removed");
+        add(self.non_manifold_edges, "non-manifold edge(s) (shared by 3+ triangles) kept without bending");
+        add(self.inconsistent_windings, "edge(s) with inconsistent triangle winding kept");
         lines
     }
 }
@@ -128,10 +115,7 @@ pub fn clean(mut mesh: TriMesh) -> Result<(TriMesh, MeshReport), MeshError> {
     let mut report = MeshReport::default();
 
     let diagonal = mesh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).norm());
-    let welding = find_coincident(
-        &mesh.positions,
-        WELD_TOLERANCE_OF_DIAGONAL * diagonal.max(1e-12),
-    );
+    let welding = find_coincident(&mesh.positions, WELD_TOLERANCE_OF_DIAGONAL * diagonal.max(1e-12));
     report.welded_vertices = welding.merged;
     let weld = |v: u32| welding.representative[v as usize];
     for tri in &mut mesh.triangles {
@@ -141,16 +125,13 @@ pub fn clean(mut mesh: TriMesh) -> Result<(TriMesh, MeshReport), MeshError> {
         *quad = quad.map(weld);
     }
 
-    let keep: Vec<bool> = (0..mesh.triangles.len())
-        .map(|t| !is_degenerate(&mesh, t))
-        .collect();
+    let keep: Vec<bool> = (0..mesh.triangles.len()).map(|t| !is_degenerate(&mesh, t)).collect();
     report.degenerate_triangles = keep.iter().filter(|k| !**k).count();
     if report.degenerate_triangles == mesh.triangles.len() {
         return Err(MeshError::AllDegenerate(mesh.triangles.len()));
     }
     retain_triangles(&mut mesh, &keep);
-    mesh.quads
-        .retain(|q| (0..4).all(|i| (i + 1..4).all(|j| q[i] != q[j])));
+    mesh.quads.retain(|q| (0..4).all(|i| (i + 1..4).all(|j| q[i] != q[j])));
 
     report.isolated_vertices = remove_unused_vertices(&mut mesh) - welding.merged;
     let topology = Topology::new(&mesh.triangles);
@@ -160,18 +141,10 @@ pub fn clean(mut mesh: TriMesh) -> Result<(TriMesh, MeshReport), MeshError> {
 }
 
 fn check_finite(positions: &[Vector3<f64>]) -> Result<(), MeshError> {
-    match positions
-        .iter()
-        .position(|p| !p.iter().all(|c| c.is_finite()))
-    {
+    match positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
         Some(vertex) => {
             let p = positions[vertex];
-            Err(MeshError::NonFinite {
-                vertex,
-                x: p.x,
-                y: p.y,
-                z: p.z,
-            })
+            Err(MeshError::NonFinite { vertex, x: p.x, y: p.y, z: p.z })
         }
         None => Ok(()),
     }
@@ -181,11 +154,7 @@ fn check_indices(mesh: &TriMesh) -> Result<(), MeshError> {
     let count = mesh.positions.len();
     for (triangle, tri) in mesh.triangles.iter().enumerate() {
         if let Some(&index) = tri.iter().find(|&&i| i as usize >= count) {
-            return Err(MeshError::IndexOutOfRange {
-                triangle,
-                index,
-                count,
-            });
+            return Err(MeshError::IndexOutOfRange { triangle, index, count });
         }
     }
     Ok(())
@@ -193,10 +162,7 @@ fn check_indices(mesh: &TriMesh) -> Result<(), MeshError> {
 
 fn is_degenerate(mesh: &TriMesh, t: usize) -> bool {
     let [a, b, c] = mesh.triangle_corners(t);
-    let longest_sq = [(b - a), (c - b), (a - c)]
-        .iter()
-        .map(|e| e.norm_squared())
-        .fold(0.0, f64::max);
+    let longest_sq = [(b - a), (c - b), (a - c)].iter().map(|e| e.norm_squared()).fold(0.0, f64::max);
     let twice_area = (b - a).cross(&(c - a)).norm();
     longest_sq == 0.0 || twice_area <= 2.0 * DEGENERATE_AREA_RATIO * longest_sq
 }
@@ -223,9 +189,7 @@ fn retain_triangles(mesh: &mut TriMesh, keep: &[bool]) {
     mesh.triangles.retain(|_| *flags.next().unwrap_or(&false));
     if !mesh.surface.triangle_uvs.is_empty() {
         let mut flags = keep.iter();
-        mesh.surface
-            .triangle_uvs
-            .retain(|_| *flags.next().unwrap_or(&false));
+        mesh.surface.triangle_uvs.retain(|_| *flags.next().unwrap_or(&false));
     }
 }
 
@@ -304,29 +268,16 @@ mod tests {
 
         let mut nan = generate::grid(1.0, 2);
         nan.positions[3].y = f64::NAN;
-        assert!(matches!(
-            clean(nan).unwrap_err(),
-            MeshError::NonFinite { vertex: 3, .. }
-        ));
+        assert!(matches!(clean(nan).unwrap_err(), MeshError::NonFinite { vertex: 3, .. }));
 
         let mut out_of_range = generate::grid(1.0, 2);
         out_of_range.triangles[1][2] = 7;
-        assert_eq!(
-            clean(out_of_range).unwrap_err(),
-            MeshError::IndexOutOfRange {
-                triangle: 1,
-                index: 7,
-                count: 4
-            }
-        );
+        assert_eq!(clean(out_of_range).unwrap_err(), MeshError::IndexOutOfRange { triangle: 1, index: 7, count: 4 });
 
         let mut flat = generate::grid(1.0, 2);
         for p in &mut flat.positions {
             p.z = 0.0;
         }
-        assert!(matches!(
-            clean(flat).unwrap_err(),
-            MeshError::AllDegenerate(2)
-        ));
+        assert!(matches!(clean(flat).unwrap_err(), MeshError::AllDegenerate(2)));
     }
 }

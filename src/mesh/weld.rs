@@ -42,16 +42,11 @@ pub fn find_coincident(positions: &[Vector3<f64>], tolerance_m: f64) -> Welding 
             }
         }
     }
-    Welding {
-        representative,
-        merged,
-    }
+    Welding { representative, merged }
 }
 
 fn neighbour_cells(cell: Vector3<i64>) -> impl Iterator<Item = Vector3<i64>> {
-    (-1..=1).flat_map(move |dx| {
-        (-1..=1).flat_map(move |dy| (-1..=1).map(move |dz| cell + Vector3::new(dx, dy, dz)))
-    })
+    (-1..=1).flat_map(move |dx| (-1..=1).flat_map(move |dy| (-1..=1).map(move |dz| cell + Vector3::new(dx, dy, dz))))
 }
 
 #[cfg(test)]
@@ -75,10 +70,7 @@ mod tests {
     #[test]
     fn vertices_across_a_cell_border_still_weld() {
         let tol = 1e-3;
-        let positions = [
-            Vector3::new(tol - 1e-5, 0.0, 0.0),
-            Vector3::new(tol + 1e-5, 0.0, 0.0),
-        ];
+        let positions = [Vector3::new(tol - 1e-5, 0.0, 0.0), Vector3::new(tol + 1e-5, 0.0, 0.0)];
         assert_eq!(find_coincident(&positions, tol).representative, vec![0, 0]);
     }
 }

@@ -116,14 +116,8 @@ impl Cloth {
     pub fn spring_coefficients(&self, s: usize, fabric: &Fabric) -> (f64, f64) {
         let ratio = self.spring_area_ratio[s];
         match self.spring_kind[s] {
-            SpringKind::Stretch => (
-                fabric.stretch_stiffness_n_per_m * ratio,
-                fabric.stretch_damping_n_s_per_m * ratio,
-            ),
-            SpringKind::Shear => (
-                fabric.shear_stiffness_n_per_m * ratio,
-                fabric.shear_damping_n_s_per_m * ratio,
-            ),
+            SpringKind::Stretch => (fabric.stretch_stiffness_n_per_m * ratio, fabric.stretch_damping_n_s_per_m * ratio),
+            SpringKind::Shear => (fabric.shear_stiffness_n_per_m * ratio, fabric.shear_damping_n_s_per_m * ratio),
         }
     }
 
@@ -134,14 +128,11 @@ impl Cloth {
         let springs_start = self.spring_count();
         let hinges_start = self.hinge_vertices.len();
 
-        let areas: Vec<f64> = (0..mesh.triangles.len())
-            .map(|t| mesh.triangle_area(t))
-            .collect();
+        let areas: Vec<f64> = (0..mesh.triangles.len()).map(|t| mesh.triangle_area(t)).collect();
         let topology = Topology::new(&mesh.triangles);
         self.rest_positions.extend_from_slice(&mesh.positions);
         self.mass.extend(lumped_masses(mesh, &areas, &fabric));
-        self.garment_of_vertex
-            .extend(std::iter::repeat_n(garment, mesh.vertex_count()));
+        self.garment_of_vertex.extend(std::iter::repeat_n(garment, mesh.vertex_count()));
 
         let shapes = SpringLayout::new(mesh, &topology, &areas);
         for (ends, kind, area) in shapes.springs {
@@ -152,14 +143,8 @@ impl Cloth {
             self.spring_area_ratio.push(area / (rest * rest));
         }
         for hinge in &topology.hinges {
-            let ids = [
-                hinge.edge[0],
-                hinge.edge[1],
-                hinge.opposite[0],
-                hinge.opposite[1],
-            ];
-            self.hinge_weights
-                .push(hinge_weights(&ids.map(|v| mesh.positions[v as usize])));
+            let ids = [hinge.edge[0], hinge.edge[1], hinge.opposite[0], hinge.opposite[1]];
+            self.hinge_weights.push(hinge_weights(&ids.map(|v| mesh.positions[v as usize])));
             self.hinge_vertices.push(ids.map(|v| v + offset));
         }
         self.garments.push(GarmentRange {
@@ -196,19 +181,11 @@ impl SpringLayout {
         let sorted = |a: u32, b: u32| [a.min(b), a.max(b)];
         let mut diagonals: HashMap<[u32; 2], f64> = HashMap::new();
         let mut quad_triangles: HashSet<[u32; 3]> = HashSet::new();
-        let triangle_index: HashMap<[u32; 3], usize> = mesh
-            .triangles
-            .iter()
-            .enumerate()
-            .map(|(t, tri)| (sorted_triangle(tri), t))
-            .collect();
+        let triangle_index: HashMap<[u32; 3], usize> =
+            mesh.triangles.iter().enumerate().map(|(t, tri)| (sorted_triangle(tri), t)).collect();
         for &[a, b, c, d] in &mesh.quads {
             let halves = [sorted_triangle(&[a, b, c]), sorted_triangle(&[a, c, d])];
-            let quad_area: f64 = halves
-                .iter()
-                .filter_map(|h| triangle_index.get(h))
-                .map(|&t| areas[t])
-                .sum();
+            let quad_area: f64 = halves.iter().filter_map(|h| triangle_index.get(h)).map(|&t| areas[t]).sum();
             quad_triangles.extend(halves);
             for diagonal in [sorted(a, c), sorted(b, d)] {
                 *diagonals.entry(diagonal).or_default() += 2.0 * quad_area;
@@ -220,18 +197,12 @@ impl SpringLayout {
         let mut edge_area: HashMap<[u32; 2], f64> = HashMap::new();
         for (tri, area) in mesh.triangles.iter().zip(areas) {
             for k in 0..3 {
-                *edge_area
-                    .entry(sorted(tri[k], tri[(k + 1) % 3]))
-                    .or_default() += area;
+                *edge_area.entry(sorted(tri[k], tri[(k + 1) % 3])).or_default() += area;
             }
         }
         for edge in &topology.edges {
             if !diagonals.contains_key(&edge.vertices) {
-                springs.push((
-                    edge.vertices,
-                    SpringKind::Stretch,
-                    edge_area[&edge.vertices],
-                ));
+                springs.push((edge.vertices, SpringKind::Stretch, edge_area[&edge.vertices]));
             }
         }
         let mut shear: Vec<([u32; 2], f64)> = diagonals.into_iter().collect();
@@ -242,21 +213,14 @@ impl SpringLayout {
                 continue;
             }
             let [a, b] = edge.vertices;
-            let across = sorted(
-                third(&mesh.triangles[t0], a, b),
-                third(&mesh.triangles[t1], a, b),
-            );
+            let across = sorted(third(&mesh.triangles[t0], a, b), third(&mesh.triangles[t1], a, b));
             if across[0] != across[1] && !edge_set.contains(&across) {
                 shear.push((across, 2.0 * (areas[t0] + areas[t1])));
             }
         }
         shear.sort_by(|x, y| x.0.cmp(&y.0));
         shear.dedup_by(|x, y| x.0 == y.0);
-        springs.extend(
-            shear
-                .into_iter()
-                .map(|(ends, area)| (ends, SpringKind::Shear, area)),
-        );
+        springs.extend(shear.into_iter().map(|(ends, area)| (ends, SpringKind::Shear, area)));
         SpringLayout { springs }
     }
 }
@@ -268,10 +232,7 @@ fn sorted_triangle(tri: &[u32; 3]) -> [u32; 3] {
 }
 
 fn third(tri: &[u32; 3], a: u32, b: u32) -> u32 {
-    tri.iter()
-        .copied()
-        .find(|&v| v != a && v != b)
-        .unwrap_or(tri[0])
+    tri.iter().copied().find(|&v| v != a && v != b).unwrap_or(tri[0])
 }
 
 #[cfg(test)]
@@ -287,25 +248,15 @@ mod tests {
             let mesh = generate::grid(1.0, n);
             let cloth = Cloth::new([(&mesh, cotton())]);
             let cells = (n - 1) * (n - 1);
-            let stretch =
-                (0..cloth.spring_count()).filter(|&s| cloth.spring_kind[s] == SpringKind::Stretch);
+            let stretch = (0..cloth.spring_count()).filter(|&s| cloth.spring_kind[s] == SpringKind::Stretch);
             assert_eq!(stretch.clone().count(), 2 * n * (n - 1));
-            assert_eq!(
-                cloth.spring_count() - stretch.clone().count(),
-                2 * cells,
-                "two diagonals per quad"
-            );
+            assert_eq!(cloth.spring_count() - stretch.clone().count(), 2 * cells, "two diagonals per quad");
             // Interior stretch springs carry a full strip (ratio 1), boundary ones half.
             for s in stretch {
                 let ratio = cloth.spring_area_ratio[s];
-                assert!(
-                    (ratio - 1.0).abs() < 1e-9 || (ratio - 0.5).abs() < 1e-9,
-                    "{ratio}"
-                );
+                assert!((ratio - 1.0).abs() < 1e-9 || (ratio - 0.5).abs() < 1e-9, "{ratio}");
             }
-            for s in
-                (0..cloth.spring_count()).filter(|&s| cloth.spring_kind[s] == SpringKind::Shear)
-            {
+            for s in (0..cloth.spring_count()).filter(|&s| cloth.spring_kind[s] == SpringKind::Shear) {
                 assert!((cloth.spring_area_ratio[s] - 1.0).abs() < 1e-9);
             }
             let total: f64 = cloth.mass.iter().sum();
@@ -327,17 +278,10 @@ mod tests {
         let mut mesh = generate::grid(1.0, 3);
         mesh.quads.clear();
         let cloth = Cloth::new([(&mesh, cotton())]);
-        let shear = cloth
-            .spring_kind
-            .iter()
-            .filter(|k| **k == SpringKind::Shear)
-            .count();
+        let shear = cloth.spring_kind.iter().filter(|k| **k == SpringKind::Shear).count();
         let interior_edges = Topology::new(&mesh.triangles).hinges.len();
         assert_eq!(shear, interior_edges, "one across each interior edge");
-        assert_eq!(
-            cloth.spring_count() - shear,
-            Topology::new(&mesh.triangles).edges.len()
-        );
+        assert_eq!(cloth.spring_count() - shear, Topology::new(&mesh.triangles).edges.len());
     }
 
     /// Maps a flat mesh in the XZ plane onto a cylinder of radius `radius` whose
@@ -371,11 +315,7 @@ mod tests {
         for r in 0..rows {
             for c in 0..n {
                 let shift = if r % 2 == 1 { 0.5 * h } else { 0.0 };
-                mesh.positions.push(Vector3::new(
-                    c as f64 * h + shift - 0.5 * size,
-                    0.0,
-                    r as f64 * row_h,
-                ));
+                mesh.positions.push(Vector3::new(c as f64 * h + shift - 0.5 * size, 0.0, r as f64 * row_h));
             }
         }
         let id = |r: usize, c: usize| (r * n + c) as u32;
@@ -383,13 +323,10 @@ mod tests {
             for c in 0..n - 1 {
                 if r % 2 == 0 {
                     mesh.triangles.push([id(r, c), id(r + 1, c), id(r, c + 1)]);
-                    mesh.triangles
-                        .push([id(r, c + 1), id(r + 1, c), id(r + 1, c + 1)]);
+                    mesh.triangles.push([id(r, c + 1), id(r + 1, c), id(r + 1, c + 1)]);
                 } else {
-                    mesh.triangles
-                        .push([id(r, c), id(r + 1, c), id(r + 1, c + 1)]);
-                    mesh.triangles
-                        .push([id(r, c), id(r + 1, c + 1), id(r, c + 1)]);
+                    mesh.triangles.push([id(r, c), id(r + 1, c), id(r + 1, c + 1)]);
+                    mesh.triangles.push([id(r, c), id(r + 1, c + 1), id(r, c + 1)]);
                 }
             }
         }
@@ -409,22 +346,13 @@ mod tests {
             bending_energy(&cloth, &bend_onto_cylinder(mesh, radius), rigidity) / plate
         };
         for (name, mesh_at) in [
-            (
-                "grid",
-                &(|n| generate::grid(0.5, n)) as &dyn Fn(usize) -> TriMesh,
-            ),
+            ("grid", &(|n| generate::grid(0.5, n)) as &dyn Fn(usize) -> TriMesh),
             ("lattice", &|n| triangle_lattice(0.5, n)),
         ] {
-            let deficits: Vec<f64> = [17, 33, 65]
-                .iter()
-                .map(|&n| 1.0 - ratio(&mesh_at(n)))
-                .collect();
+            let deficits: Vec<f64> = [17, 33, 65].iter().map(|&n| 1.0 - ratio(&mesh_at(n))).collect();
             assert!(deficits[2].abs() < 0.03, "{name}: {deficits:?}");
             for pair in deficits.windows(2) {
-                assert!(
-                    (pair[1] / pair[0] - 0.5).abs() < 0.1,
-                    "{name}: first order, {deficits:?}"
-                );
+                assert!((pair[1] / pair[0] - 0.5).abs() < 0.1, "{name}: first order, {deficits:?}");
             }
         }
     }

@@ -69,56 +69,29 @@ impl Shape {
     /// Exact signed distance and normal at `p` (local frame, metres).
     pub fn signed_distance(&self, p: &Vector3<f64>) -> SignedDistance {
         match *self {
-            Shape::Plane => SignedDistance {
-                distance: p.y,
-                normal: Vector3::y(),
-            },
+            Shape::Plane => SignedDistance { distance: p.y, normal: Vector3::y() },
             Shape::Sphere { radius } => {
                 let r = p.norm();
                 let normal = if r > 0.0 { p / r } else { Vector3::y() };
-                SignedDistance {
-                    distance: r - radius,
-                    normal,
-                }
+                SignedDistance { distance: r - radius, normal }
             }
             Shape::Box { half_extents: h } => {
                 let corners = [(-h.x, -h.z), (h.x, -h.z), (h.x, h.z), (-h.x, h.z)];
-                extrude(
-                    p,
-                    convex_polygon(&Vector2::new(p.x, p.z), &corners.map(v2)),
-                    h.y,
-                )
+                extrude(p, convex_polygon(&Vector2::new(p.x, p.z), &corners.map(v2)), h.y)
             }
-            Shape::Cylinder {
-                radius,
-                half_height,
-            } => extrude(p, circle(&Vector2::new(p.x, p.z), radius), half_height),
-            Shape::Cone {
-                radius,
-                half_height,
-            } => {
-                let meridian = [
-                    (-radius, -half_height),
-                    (radius, -half_height),
-                    (0.0, half_height),
-                ];
+            Shape::Cylinder { radius, half_height } => extrude(p, circle(&Vector2::new(p.x, p.z), radius), half_height),
+            Shape::Cone { radius, half_height } => {
+                let meridian = [(-radius, -half_height), (radius, -half_height), (0.0, half_height)];
                 revolve(p, |m| convex_polygon(m, &meridian.map(v2)))
             }
             Shape::Prism { side, half_height } => {
                 let circumradius = side / 3f64.sqrt();
                 let corner = |deg: f64| {
-                    Vector2::new(
-                        circumradius * deg.to_radians().sin(),
-                        circumradius * deg.to_radians().cos(),
-                    )
+                    Vector2::new(circumradius * deg.to_radians().sin(), circumradius * deg.to_radians().cos())
                 };
                 // Clockwise in the compass sense = counter-clockwise in (x, z).
                 let corners = [corner(0.0), corner(240.0), corner(120.0)];
-                extrude(
-                    p,
-                    convex_polygon(&Vector2::new(p.x, p.z), &corners),
-                    half_height,
-                )
+                extrude(p, convex_polygon(&Vector2::new(p.x, p.z), &corners), half_height)
             }
         }
     }
@@ -127,12 +100,7 @@ impl Shape {
     /// at which the point comes within `level` m of the surface, or `None` when it
     /// stays farther. Conservative advancement: every step moves by the current
     /// distance, so no crossing is skipped.
-    pub fn first_time_within(
-        &self,
-        from: &Vector3<f64>,
-        to: &Vector3<f64>,
-        level: f64,
-    ) -> Option<f64> {
+    pub fn first_time_within(&self, from: &Vector3<f64>, to: &Vector3<f64>, level: f64) -> Option<f64> {
         const TOLERANCE_M: f64 = 1e-9;
         let path = to - from;
         let length = path.norm();
@@ -180,14 +148,7 @@ fn convex_polygon(p: &Vector2<f64>, corners: &[Vector2<f64>]) -> (f64, Vector2<f
         let offset = p - (a + edge * along);
         let distance = offset.norm();
         if distance < nearest.0 {
-            nearest = (
-                distance,
-                if distance > 0.0 {
-                    offset / distance
-                } else {
-                    outward
-                },
-            );
+            nearest = (distance, if distance > 0.0 { offset / distance } else { outward });
         }
     }
     if deepest.0 <= 0.0 { deepest } else { nearest }
@@ -204,29 +165,16 @@ fn extrude(p: &Vector3<f64>, (d2, n2): (f64, Vector2<f64>), half_height: f64) ->
     }
     let (a, b) = (d2.max(0.0), dy.max(0.0));
     let distance = a.hypot(b);
-    SignedDistance {
-        distance,
-        normal: (across * a + up * b) / distance,
-    }
+    SignedDistance { distance, normal: (across * a + up * b) / distance }
 }
 
 /// Revolves a 2D signed distance of the meridian plane (r, y) about local Y. The
 /// 2D shape must be symmetric about r = 0.
-fn revolve(
-    p: &Vector3<f64>,
-    meridian: impl Fn(&Vector2<f64>) -> (f64, Vector2<f64>),
-) -> SignedDistance {
+fn revolve(p: &Vector3<f64>, meridian: impl Fn(&Vector2<f64>) -> (f64, Vector2<f64>)) -> SignedDistance {
     let r = p.x.hypot(p.z);
-    let radial = if r > 0.0 {
-        Vector3::new(p.x / r, 0.0, p.z / r)
-    } else {
-        Vector3::x()
-    };
+    let radial = if r > 0.0 { Vector3::new(p.x / r, 0.0, p.z / r) } else { Vector3::x() };
     let (distance, n) = meridian(&Vector2::new(r, p.y));
-    SignedDistance {
-        distance,
-        normal: radial * n.x + Vector3::y() * n.y,
-    }
+    SignedDistance { distance, normal: radial * n.x + Vector3::y() * n.y }
 }
 
 /// A collider: a shape, where it is at time 0, and how it moves.
@@ -255,16 +203,12 @@ impl Collider {
 
     /// Velocity of the collider's surface at world point `p` at time `t`, m/s.
     pub fn surface_velocity(&self, p: &Vector3<f64>, t: f64) -> Vector3<f64> {
-        self.motion
-            .as_ref()
-            .map_or_else(Vector3::zeros, |m| m.velocity_at(p, t))
+        self.motion.as_ref().map_or_else(Vector3::zeros, |m| m.velocity_at(p, t))
     }
 
     /// Signed distance of world point `p` at time `t`, m (negative inside).
     pub fn signed_distance_at(&self, p: &Vector3<f64>, t: f64) -> f64 {
-        let local = self
-            .world_from_local(t)
-            .inverse_transform_point(&(*p).into());
+        let local = self.world_from_local(t).inverse_transform_point(&(*p).into());
         self.shape.signed_distance(&local.coords).distance
     }
 }
@@ -279,10 +223,7 @@ mod tests {
         use parry3d::math::Vector as V;
         use parry3d::shape::{Ball, Cone, ConvexPolyhedron, Cuboid, Cylinder};
         let side = 0.2f64;
-        let prism = Shape::Prism {
-            side,
-            half_height: 0.5,
-        };
+        let prism = Shape::Prism { side, half_height: 0.5 };
         let rc = (side / 3f64.sqrt()) as f32;
         let mut prism_points = Vec::new();
         for deg in [0.0f32, 120.0, 240.0] {
@@ -291,34 +232,14 @@ mod tests {
             prism_points.push(V::new(rc * s, 0.5, rc * c));
         }
         vec![
+            (Shape::Sphere { radius: 0.3 }, Box::new(Ball::new(0.3)) as Box<dyn PointQuery>),
             (
-                Shape::Sphere { radius: 0.3 },
-                Box::new(Ball::new(0.3)) as Box<dyn PointQuery>,
-            ),
-            (
-                Shape::Box {
-                    half_extents: Vector3::new(0.5, 0.025, 0.3),
-                },
+                Shape::Box { half_extents: Vector3::new(0.5, 0.025, 0.3) },
                 Box::new(Cuboid::new(V::new(0.5, 0.025, 0.3))),
             ),
-            (
-                Shape::Cylinder {
-                    radius: 0.08,
-                    half_height: 0.5,
-                },
-                Box::new(Cylinder::new(0.5, 0.08)),
-            ),
-            (
-                Shape::Cone {
-                    radius: 0.15,
-                    half_height: 0.5,
-                },
-                Box::new(Cone::new(0.5, 0.15)),
-            ),
-            (
-                prism,
-                Box::new(ConvexPolyhedron::from_convex_hull(&prism_points).unwrap()),
-            ),
+            (Shape::Cylinder { radius: 0.08, half_height: 0.5 }, Box::new(Cylinder::new(0.5, 0.08))),
+            (Shape::Cone { radius: 0.15, half_height: 0.5 }, Box::new(Cone::new(0.5, 0.15))),
+            (prism, Box::new(ConvexPolyhedron::from_convex_hull(&prism_points).unwrap())),
         ]
     }
 
@@ -365,47 +286,30 @@ mod tests {
     #[test]
     fn plane_distance_is_height() {
         let d = Shape::Plane.signed_distance(&Vector3::new(3.0, -0.2, 1.0));
-        assert_eq!(
-            d,
-            SignedDistance {
-                distance: -0.2,
-                normal: Vector3::y()
-            }
-        );
+        assert_eq!(d, SignedDistance { distance: -0.2, normal: Vector3::y() });
     }
 
     #[test]
     fn advancement_finds_the_entry_time_of_a_thin_blade() {
         // A point crossing a 2 cm blade in one step is caught at its near face.
-        let blade = Shape::Box {
-            half_extents: Vector3::new(0.01, 0.5, 0.15),
-        };
+        let blade = Shape::Box { half_extents: Vector3::new(0.01, 0.5, 0.15) };
         let (from, to) = (Vector3::new(-0.05, 0.0, 0.0), Vector3::new(0.05, 0.0, 0.0));
         let t = blade.first_time_within(&from, &to, 0.002).unwrap();
         assert!((t - 0.38).abs() < 1e-6, "{t}");
-        assert_eq!(
-            blade.first_time_within(&from, &Vector3::new(-0.02, 0.0, 0.0), 0.002),
-            None
-        );
+        assert_eq!(blade.first_time_within(&from, &Vector3::new(-0.02, 0.0, 0.0), 0.002), None);
     }
 
     #[test]
     fn advancement_reports_contact_at_the_start_when_already_within() {
         let ball = Shape::Sphere { radius: 0.3 };
         let inside = Vector3::new(0.0, 0.301, 0.0);
-        assert_eq!(
-            ball.first_time_within(&inside, &Vector3::new(0.0, 0.5, 0.0), 0.002),
-            Some(0.0)
-        );
+        assert_eq!(ball.first_time_within(&inside, &Vector3::new(0.0, 0.5, 0.0), 0.002), Some(0.0));
     }
 
     #[test]
     fn moving_collider_distance_follows_its_motion() {
         let motion = RigidMotion::from_spec(
-            &crate::sim::motion::MotionSpec {
-                velocity_m_per_s: [0.0, 0.0, -8.0],
-                ..Default::default()
-            },
+            &crate::sim::motion::MotionSpec { velocity_m_per_s: [0.0, 0.0, -8.0], ..Default::default() },
             Vector3::zeros(),
         );
         let ball = Collider {
@@ -416,9 +320,6 @@ mod tests {
             friction: None,
         };
         assert!((ball.signed_distance_at(&Vector3::zeros(), 0.125) + 0.1).abs() < 1e-12);
-        assert_eq!(
-            ball.surface_velocity(&Vector3::zeros(), 0.1),
-            Vector3::new(0.0, 0.0, -8.0)
-        );
+        assert_eq!(ball.surface_velocity(&Vector3::zeros(), 0.1), Vector3::new(0.0, 0.0, -8.0));
     }
 }

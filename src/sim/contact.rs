@@ -15,10 +15,20 @@
 //!
 //! The particle moves freely up to the contact and with its new velocity after,
 //! and ends no closer than the thickness to the surface.
+//!
+//! A particle that ends a step resting on a collider starts the next step
+//! constrained to it ([`SurfaceContact`]), so the rest of the cloth feels the
+//! support within the same implicit solve. A sliding particle keeps its normal
+//! velocity equal to the surface's and the constraint's normal impulse drives
+//! its Coulomb friction. A particle that ended the step stuck moves with the
+//! surface in all three directions (static friction inside the solve, which
+//! keeps stiff cloth stable where a correction after the solve would not), and
+//! slips again once its constraint impulse leaves the friction cone.
 
 use nalgebra::Vector3;
 
 use super::colliders::Collider;
+use super::pcg::Constraint;
 
 /// One step's timing, for contact processing.
 #[derive(Clone, Copy, Debug)]
@@ -36,6 +46,10 @@ impl StepWindow {
     }
 }
 
+/// A particle counts as resting on a collider when it ends a step within the
+/// thickness plus this fraction of it.
+const RESTING_SLACK: f64 = 0.1;
+
 /// A particle's contact properties.
 #[derive(Clone, Copy, Debug)]
 pub struct ParticleSurface {
@@ -47,7 +61,8 @@ pub struct ParticleSurface {
 
 /// Resolves one particle against every collider in order. `start` is the
 /// position at the start of the step; `end` and `velocity` are the solver's
-/// candidates and are corrected in place. Returns the number of contacts.
+/// candidates and are corrected in place. Returns the number of contacts and
+/// the last collider the particle ends the step resting on.
 pub fn resolve_particle(
     start: &Vector3<f64>,
     end: &mut Vector3<f64>,
@@ -55,14 +70,32 @@ pub fn resolve_particle(
     surface: ParticleSurface,
     colliders: &[Collider],
     window: StepWindow,
-) -> u32 {
-    colliders
-        .iter()
-        .map(|c| resolve_against(start, end, velocity, surface, c, window) as u32)
-        .sum()
+) -> (u32, Option<u32>) {
+    let mut contacts = 0;
+    let mut resting = None;
+    for (c, collider) in colliders.iter().enumerate() {
+        if let Some(gap) = resolve_against(start, end, velocity, surface, collider, window) {
+            contacts += 1;
+            if gap <= surface.thickness * (1.0 + RESTING_SLACK) {
+                resting = Some(c as u32);
+            }
+        }
+    }
+    (contacts, resting)
 }
 
-/// Resolves one particle against one collider; true when they touched.
+/// Coulomb friction (eq. 15): the tangential relative velocity after a normal
+/// velocity change of `normal_change` m/s, with coefficient `mu`.
+pub fn coulomb_friction(tangential: Vector3<f64>, normal_change: f64, mu: f64) -> Vector3<f64> {
+    let speed = tangential.norm();
+    if speed == 0.0 {
+        return tangential;
+    }
+    tangential * (1.0 - mu * normal_change / speed).max(0.0)
+}
+
+/// Resolves one particle against one collider; when they touch, returns the
+/// particle's final distance to the surface, m.
 fn resolve_against(
     start: &Vector3<f64>,
     end: &mut Vector3<f64>,
@@ -70,17 +103,12 @@ fn resolve_against(
     surface: ParticleSurface,
     collider: &Collider,
     window: StepWindow,
-) -> bool {
+) -> Option<f64> {
     let pose_start = collider.world_from_local(window.t0);
     let pose_end = collider.world_from_local(window.t1);
     let from = pose_start.inverse_transform_point(&(*start).into()).coords;
     let to = pose_end.inverse_transform_point(&(*end).into()).coords;
-    let Some(t) = collider
-        .shape
-        .first_time_within(&from, &to, surface.thickness)
-    else {
-        return false;
-    };
+    let t = collider.shape.first_time_within(&from, &to, surface.thickness)?;
     let touch = from + (to - from) * t;
     // Normal and surface velocity where and when the particle touches.
     let touch_time = window.t0 + t * window.h();
@@ -92,15 +120,8 @@ fn resolve_against(
     let approach = relative.dot(&normal);
     let mut local_end = to;
     if approach < 0.0 {
-        let tangential = relative - normal * approach;
-        let speed = tangential.norm();
         let mu = collider.friction.unwrap_or(surface.friction);
-        let keep = if speed > 0.0 {
-            (1.0 - mu * -approach / speed).max(0.0)
-        } else {
-            0.0
-        };
-        *velocity = surface_velocity + tangential * keep;
+        *velocity = surface_velocity + coulomb_friction(relative - normal * approach, -approach, mu);
         // After the touch the particle moves with the surface plus its slide.
         let slide = pose_touch.rotation.inverse() * (*velocity - surface_velocity);
         local_end = touch + slide * ((1.0 - t) * window.h());
@@ -110,7 +131,110 @@ fn resolve_against(
         local_end += depth.normal * (surface.thickness - depth.distance);
     }
     *end = (pose_end * nalgebra::Point3::from(local_end)).coords;
-    true
+    Some(depth.distance.max(surface.thickness))
+}
+
+/// A particle held to a collider's surface in the solve: its velocity along
+/// the normal is prescribed, the rest is free.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceContact {
+    /// Index of the collider.
+    pub collider: u32,
+    /// Outward unit normal of the surface at the particle.
+    pub normal: Vector3<f64>,
+    /// Velocity of the surface there, m/s.
+    pub surface_velocity: Vector3<f64>,
+    /// Prescribed velocity along the normal relative to the surface, m/s
+    /// (0 for a resting particle, negative for one arriving during the step).
+    pub normal_speed: f64,
+    /// True when static friction holds the particle: it moves with the surface.
+    pub sticking: bool,
+}
+
+impl SurfaceContact {
+    /// The contact of a particle at `position` resting on collider `index` at
+    /// the start of `window`, stuck to it or sliding.
+    pub fn resting(
+        position: &Vector3<f64>,
+        colliders: &[Collider],
+        index: u32,
+        sticking: bool,
+        window: StepWindow,
+    ) -> Self {
+        let collider = &colliders[index as usize];
+        let pose = collider.world_from_local(window.t0);
+        let local = pose.inverse_transform_point(&(*position).into()).coords;
+        SurfaceContact {
+            collider: index,
+            normal: pose.rotation * collider.shape.signed_distance(&local).normal,
+            surface_velocity: collider.surface_velocity(position, window.t0),
+            normal_speed: 0.0,
+            sticking,
+        }
+    }
+
+    /// The first collider that the straight path `start → end` over the step
+    /// brings within `thickness` while approaching it, as a contact that keeps
+    /// the part of the approach before the touch: the particle arrives at the
+    /// thickness at the end of the step and slides along the surface.
+    pub fn predicted(
+        start: &Vector3<f64>,
+        end: &Vector3<f64>,
+        thickness: f64,
+        colliders: &[Collider],
+        window: StepWindow,
+    ) -> Option<Self> {
+        colliders.iter().enumerate().find_map(|(index, collider)| {
+            let from = collider.world_from_local(window.t0).inverse_transform_point(&(*start).into()).coords;
+            let to = collider.world_from_local(window.t1).inverse_transform_point(&(*end).into()).coords;
+            let t = collider.shape.first_time_within(&from, &to, thickness)?;
+            let touch = from + (to - from) * t;
+            let local_normal = collider.shape.signed_distance(&touch).normal;
+            let approach = (to - from).dot(&local_normal);
+            if approach >= 0.0 {
+                return None;
+            }
+            let pose_touch = collider.world_from_local(window.t0 + t * window.h());
+            Some(SurfaceContact {
+                collider: index as u32,
+                normal: pose_touch.rotation * local_normal,
+                surface_velocity: collider.surface_velocity(start, window.t0),
+                normal_speed: t * approach / window.h(),
+                sticking: false,
+            })
+        })
+    }
+
+    /// The constraint this contact puts on the solve.
+    pub fn constraint(&self) -> Constraint {
+        if self.sticking { Constraint::Fixed } else { Constraint::Normal(self.normal) }
+    }
+
+    /// The velocity change `dv` of a particle with velocity `v`, with its
+    /// prescribed part replaced: all of it for a sticking particle (it moves
+    /// with the surface), the normal part otherwise.
+    pub fn prescribe(&self, v: &Vector3<f64>, dv: &Vector3<f64>) -> Vector3<f64> {
+        let target = self.normal.dot(&self.surface_velocity) + self.normal_speed;
+        if self.sticking {
+            return self.surface_velocity + self.normal * self.normal_speed - v;
+        }
+        dv - self.normal * self.normal.dot(dv) + self.normal * (target - self.normal.dot(v))
+    }
+
+    /// True when a sticking contact's constraint impulse (N·s) lies outside the
+    /// Coulomb cone of coefficient `mu`: the particle must slip.
+    pub fn slips(&self, impulse: &Vector3<f64>, mu: f64) -> bool {
+        let normal = self.normal.dot(impulse);
+        (impulse - self.normal * normal).norm() > mu * normal
+    }
+
+    /// Velocity after the solve with the constraint's normal impulse per mass
+    /// `normal_change` (m/s) turned into Coulomb friction.
+    pub fn with_friction(&self, velocity: Vector3<f64>, normal_change: f64, mu: f64) -> Vector3<f64> {
+        let relative = velocity - self.surface_velocity;
+        let normal = self.normal * self.normal.dot(&relative);
+        self.surface_velocity + normal + coulomb_friction(relative - normal, normal_change, mu)
+    }
 }
 
 #[cfg(test)]
@@ -130,10 +254,7 @@ mod tests {
         }
     }
 
-    const SURFACE: ParticleSurface = ParticleSurface {
-        thickness: 0.002,
-        friction: 0.5,
-    };
+    const SURFACE: ParticleSurface = ParticleSurface { thickness: 0.002, friction: 0.5 };
     const WINDOW: StepWindow = StepWindow { t0: 0.0, t1: 0.01 };
 
     #[test]
@@ -141,20 +262,9 @@ mod tests {
         let start = Vector3::new(0.0, 0.01, 0.0);
         let mut velocity = Vector3::new(0.0, -3.0, 0.0);
         let mut end = start + velocity * WINDOW.h();
-        let contacts = resolve_particle(
-            &start,
-            &mut end,
-            &mut velocity,
-            SURFACE,
-            &[ground()],
-            WINDOW,
-        );
-        assert_eq!(contacts, 1);
-        assert_eq!(
-            velocity,
-            Vector3::zeros(),
-            "inelastic, no tangential motion"
-        );
+        let contacts = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
+        assert_eq!(contacts, (1, Some(0)), "touching and resting on the ground");
+        assert_eq!(velocity, Vector3::zeros(), "inelastic, no tangential motion");
         assert!((end.y - 0.002).abs() < 1e-12, "{end}");
     }
 
@@ -165,33 +275,13 @@ mod tests {
         let start = Vector3::new(0.0, 0.002, 0.0);
         let mut velocity = Vector3::new(2.0, -1.0, 0.0);
         let mut end = start + velocity * WINDOW.h();
-        resolve_particle(
-            &start,
-            &mut end,
-            &mut velocity,
-            SURFACE,
-            &[ground()],
-            WINDOW,
-        );
-        assert!(
-            (velocity - Vector3::new(1.5, 0.0, 0.0)).norm() < 1e-12,
-            "{velocity}"
-        );
-        assert!(
-            (end - Vector3::new(0.015, 0.002, 0.0)).norm() < 1e-12,
-            "{end}"
-        );
+        resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
+        assert!((velocity - Vector3::new(1.5, 0.0, 0.0)).norm() < 1e-12, "{velocity}");
+        assert!((end - Vector3::new(0.015, 0.002, 0.0)).norm() < 1e-12, "{end}");
 
         let mut velocity = Vector3::new(0.3, -1.0, 0.0);
         let mut end = start + velocity * WINDOW.h();
-        resolve_particle(
-            &start,
-            &mut end,
-            &mut velocity,
-            SURFACE,
-            &[ground()],
-            WINDOW,
-        );
+        resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
         assert_eq!(velocity, Vector3::zeros(), "static friction holds it");
     }
 
@@ -201,15 +291,9 @@ mod tests {
         let mut velocity = Vector3::new(1.0, 2.0, 0.0);
         let mut end = start + velocity * WINDOW.h();
         let expected = end;
-        resolve_particle(
-            &start,
-            &mut end,
-            &mut velocity,
-            SURFACE,
-            &[ground()],
-            WINDOW,
-        );
+        let (_, resting) = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
         assert_eq!((end, velocity), (expected, Vector3::new(1.0, 2.0, 0.0)));
+        assert_eq!(resting, None, "it leaves the surface");
     }
 
     /// A sphere moving at 8 m/s meets a resting particle in the middle of the step
@@ -218,10 +302,7 @@ mod tests {
     #[test]
     fn fast_sphere_pushes_a_particle_instead_of_passing_it() {
         let motion = RigidMotion::from_spec(
-            &MotionSpec {
-                velocity_m_per_s: [0.0, 0.0, -8.0],
-                ..Default::default()
-            },
+            &MotionSpec { velocity_m_per_s: [0.0, 0.0, -8.0], ..Default::default() },
             Vector3::zeros(),
         );
         let ball = Collider {
@@ -231,25 +312,12 @@ mod tests {
             motion: Some(motion),
             friction: Some(0.0),
         };
-        let window = StepWindow {
-            t0: 0.0,
-            t1: 1.0 / 30.0,
-        };
+        let window = StepWindow { t0: 0.0, t1: 1.0 / 30.0 };
         let start = Vector3::zeros();
         let (mut end, mut velocity) = (start, Vector3::zeros());
-        resolve_particle(
-            &start,
-            &mut end,
-            &mut velocity,
-            SURFACE,
-            &[ball.clone()],
-            window,
-        );
+        resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ball.clone()], window);
         let centre_end = 0.2 - 8.0 / 30.0;
-        assert!(
-            (end.z - (centre_end - 0.102)).abs() < 1e-9,
-            "ends at the sphere's front: {end}"
-        );
+        assert!((end.z - (centre_end - 0.102)).abs() < 1e-9, "ends at the sphere's front: {end}");
         assert!((velocity - Vector3::new(0.0, 0.0, -8.0)).norm() < 1e-12);
         assert!(ball.signed_distance_at(&end, window.t1) >= 0.002 - 1e-12);
     }
@@ -257,10 +325,7 @@ mod tests {
     #[test]
     fn spinning_sphere_drags_a_resting_particle_by_friction() {
         let spin = RigidMotion::from_spec(
-            &MotionSpec {
-                angular_velocity_deg_per_s: [0.0, 360.0, 0.0],
-                ..Default::default()
-            },
+            &MotionSpec { angular_velocity_deg_per_s: [0.0, 360.0, 0.0], ..Default::default() },
             Vector3::zeros(),
         );
         let ball = Collider {
@@ -278,5 +343,60 @@ mod tests {
         // Surface speed there is 2π·0.3 ≈ 1.9 m/s towards −Z; friction gives μ·1 m/s of it.
         assert!((velocity.z + 0.5).abs() < 0.01, "{velocity}");
         assert!(velocity.x.abs() < 0.02, "{velocity}");
+    }
+
+    #[test]
+    fn resting_contact_friction_uses_the_constraint_impulse() {
+        let contact = SurfaceContact::resting(&Vector3::new(0.0, 0.0025, 0.0), &[ground()], 0, false, WINDOW);
+        assert_eq!(contact.normal, Vector3::y());
+        let slowed = contact.with_friction(Vector3::new(1.0, 0.0, 0.0), 0.1, 0.5);
+        assert!((slowed - Vector3::new(0.95, 0.0, 0.0)).norm() < 1e-12);
+        assert_eq!(contact.with_friction(Vector3::new(0.01, 0.0, 0.0), 0.1, 0.5), Vector3::zeros());
+    }
+
+    #[test]
+    fn predicted_contact_makes_a_falling_particle_arrive_at_the_thickness() {
+        let start = Vector3::new(0.0, 0.0125, 0.0);
+        let v = Vector3::new(0.5, -2.0, 0.0);
+        let end = start + Vector3::new(0.5, -3.0, 0.0) * WINDOW.h();
+        let contact = SurfaceContact::predicted(&start, &end, 0.0025, &[ground()], WINDOW).unwrap();
+        let dv = contact.prescribe(&v, &Vector3::new(0.1, -1.0, 0.2));
+        let arrival = start + (v + dv) * WINDOW.h();
+        assert!((arrival.y - 0.0025).abs() < 1e-8, "{arrival}");
+        assert_eq!((dv.x, dv.z), (0.1, 0.2), "tangential part left to the solve");
+        let missed = SurfaceContact::predicted(&start, &(start + Vector3::x()), 0.0025, &[ground()], WINDOW);
+        assert_eq!(missed, None);
+        let resting = Vector3::new(0.0, 0.0025, 0.0);
+        let leaving =
+            SurfaceContact::predicted(&resting, &(resting + Vector3::y() * 0.01), 0.0025, &[ground()], WINDOW);
+        assert_eq!(leaving, None, "a particle moving away is not held");
+    }
+
+    /// A particle falling past the side of a sphere, whose path just grazes it,
+    /// is not yanked towards the sphere: it keeps the approach it had.
+    #[test]
+    fn grazing_prediction_keeps_the_particles_own_approach() {
+        let ball = Collider {
+            name: "ball".into(),
+            shape: crate::sim::colliders::Shape::Sphere { radius: 0.3 },
+            rest_pose: Isometry3::identity(),
+            motion: None,
+            friction: None,
+        };
+        let start = Vector3::new(0.3015, 0.05, 0.0);
+        let end = Vector3::new(0.3015, -0.05, 0.0);
+        let contact = SurfaceContact::predicted(&start, &end, 0.0025, &[ball], WINDOW).unwrap();
+        let sideways = contact.normal_speed * contact.normal.x;
+        assert!(sideways.abs() < 0.1 * 0.1 / WINDOW.h(), "{contact:?}");
+    }
+
+    #[test]
+    fn sticking_contact_moves_with_the_surface_until_its_impulse_leaves_the_cone() {
+        let contact = SurfaceContact::resting(&Vector3::new(0.0, 0.0025, 0.0), &[ground()], 0, true, WINDOW);
+        assert_eq!(contact.constraint(), Constraint::Fixed);
+        let v = Vector3::new(0.3, -0.1, 0.0);
+        assert_eq!(v + contact.prescribe(&v, &Vector3::new(5.0, 5.0, 5.0)), Vector3::zeros());
+        assert!(!contact.slips(&Vector3::new(0.4, 1.0, 0.0), 0.5));
+        assert!(contact.slips(&Vector3::new(0.6, 1.0, 0.0), 0.5));
     }
 }

@@ -60,47 +60,18 @@ impl Fabric {
     /// Checks every parameter against its physical range.
     pub fn validate(&self) -> Result<(), FabricError> {
         let check = |field, value: f64, ok: bool, expected| {
-            if value.is_finite() && ok {
-                Ok(())
-            } else {
-                Err(FabricError {
-                    field,
-                    value,
-                    expected,
-                })
-            }
+            if value.is_finite() && ok { Ok(()) } else { Err(FabricError { field, value, expected }) }
         };
         let d = self.area_density_kg_per_m2;
-        check(
-            "area_density_kg_per_m2",
-            d,
-            d > 0.0 && d <= 20.0,
-            "0 < value ≤ 20 kg/m²",
-        )?;
+        check("area_density_kg_per_m2", d, d > 0.0 && d <= 20.0, "0 < value ≤ 20 kg/m²")?;
         if let Some(m) = self.vertex_mass_kg {
             check("vertex_mass_kg", m, m > 0.0, "a positive mass in kg")?;
         }
         let non_negative = [
-            (
-                "stretch_stiffness_n_per_m",
-                self.stretch_stiffness_n_per_m,
-                "≥ 0 N/m",
-            ),
-            (
-                "stretch_damping_n_s_per_m",
-                self.stretch_damping_n_s_per_m,
-                "≥ 0 N·s/m",
-            ),
-            (
-                "shear_stiffness_n_per_m",
-                self.shear_stiffness_n_per_m,
-                "≥ 0 N/m",
-            ),
-            (
-                "shear_damping_n_s_per_m",
-                self.shear_damping_n_s_per_m,
-                "≥ 0 N·s/m",
-            ),
+            ("stretch_stiffness_n_per_m", self.stretch_stiffness_n_per_m, "≥ 0 N/m"),
+            ("stretch_damping_n_s_per_m", self.stretch_damping_n_s_per_m, "≥ 0 N·s/m"),
+            ("shear_stiffness_n_per_m", self.shear_stiffness_n_per_m, "≥ 0 N/m"),
+            ("shear_damping_n_s_per_m", self.shear_damping_n_s_per_m, "≥ 0 N·s/m"),
             ("bend_stiffness_n_m", self.bend_stiffness_n_m, "≥ 0 N·m"),
             ("bend_damping_n_m_s", self.bend_damping_n_m_s, "≥ 0 N·m·s"),
             ("air_damping_per_s", self.air_damping_per_s, "≥ 0 1/s"),
@@ -109,26 +80,11 @@ impl Fabric {
             check(field, value, value >= 0.0, expected)?;
         }
         for g in self.gravity_m_per_s2 {
-            check(
-                "gravity_m_per_s2",
-                g,
-                g.abs() <= 1000.0,
-                "components within ±1000 m/s²",
-            )?;
+            check("gravity_m_per_s2", g, g.abs() <= 1000.0, "components within ±1000 m/s²")?;
         }
         let dt = self.time_step_s;
-        check(
-            "time_step_s",
-            dt,
-            dt > 0.0 && dt <= 0.1,
-            "0 < value ≤ 0.1 s",
-        )?;
-        check(
-            "friction",
-            self.friction,
-            (0.0..=10.0).contains(&self.friction),
-            "0 ≤ value ≤ 10",
-        )?;
+        check("time_step_s", dt, dt > 0.0 && dt <= 0.1, "0 < value ≤ 0.1 s")?;
+        check("friction", self.friction, (0.0..=10.0).contains(&self.friction), "0 ≤ value ≤ 10")?;
         let h = self.thickness_m;
         check("thickness_m", h, h > 0.0 && h <= 0.05, "0 < value ≤ 0.05 m")?;
         Ok(())

@@ -31,13 +31,7 @@ use nalgebra::{Matrix3, Vector3};
 
 /// Force of a spring on its first particle, N. `d = x₀ − x₁` (m), `dv = v₀ − v₁`
 /// (m/s), `rest` length (m), stiffness `k` (N/m), damping `c` (N·s/m).
-pub fn spring_force(
-    d: &Vector3<f64>,
-    dv: &Vector3<f64>,
-    rest: f64,
-    k: f64,
-    c: f64,
-) -> Vector3<f64> {
+pub fn spring_force(d: &Vector3<f64>, dv: &Vector3<f64>, rest: f64, k: f64, c: f64) -> Vector3<f64> {
     let length = d.norm();
     if length == 0.0 {
         return Vector3::zeros();
@@ -57,12 +51,7 @@ pub fn spring_stiffness_definite(d: &Vector3<f64>, rest: f64, k: f64) -> Matrix3
     -elastic_jacobian(d, rest, k, |transverse| transverse.max(0.0))
 }
 
-fn elastic_jacobian(
-    d: &Vector3<f64>,
-    rest: f64,
-    k: f64,
-    transverse: impl Fn(f64) -> f64,
-) -> Matrix3<f64> {
+fn elastic_jacobian(d: &Vector3<f64>, rest: f64, k: f64, transverse: impl Fn(f64) -> f64) -> Matrix3<f64> {
     let length = d.norm();
     if length == 0.0 {
         return Matrix3::zeros();
@@ -96,8 +85,7 @@ pub fn spring_damping_matrix(d: &Vector3<f64>, c: f64) -> Matrix3<f64> {
 /// (checked in the tests on two triangulations and two resolutions).
 pub fn hinge_weights(x: &[Vector3<f64>; 4]) -> [f64; 4] {
     let e0 = x[1] - x[0];
-    let cot =
-        |a: Vector3<f64>, b: Vector3<f64>| a.dot(&b) / a.cross(&b).norm().max(f64::MIN_POSITIVE);
+    let cot = |a: Vector3<f64>, b: Vector3<f64>| a.dot(&b) / a.cross(&b).norm().max(f64::MIN_POSITIVE);
     let c01 = cot(e0, x[2] - x[0]);
     let c02 = cot(e0, x[3] - x[0]);
     let c03 = cot(-e0, x[2] - x[1]);
@@ -127,10 +115,7 @@ mod tests {
     }
 
     /// Central-difference Jacobian of `f` at `x`.
-    fn numeric_jacobian(
-        f: impl Fn(&Vector3<f64>) -> Vector3<f64>,
-        x: &Vector3<f64>,
-    ) -> Matrix3<f64> {
+    fn numeric_jacobian(f: impl Fn(&Vector3<f64>) -> Vector3<f64>, x: &Vector3<f64>) -> Matrix3<f64> {
         let h = 1e-6;
         let mut jac = Matrix3::zeros();
         for k in 0..3 {
@@ -197,26 +182,10 @@ mod tests {
 
     #[test]
     fn spring_force_pulls_ends_together_when_stretched() {
-        let f = spring_force(
-            &Vector3::new(2.0, 0.0, 0.0),
-            &Vector3::zeros(),
-            1.5,
-            10.0,
-            0.0,
-        );
+        let f = spring_force(&Vector3::new(2.0, 0.0, 0.0), &Vector3::zeros(), 1.5, 10.0, 0.0);
         assert_eq!(f, Vector3::new(-5.0, 0.0, 0.0));
-        let damped = spring_force(
-            &Vector3::new(1.5, 0.0, 0.0),
-            &Vector3::new(2.0, 1.0, 0.0),
-            1.5,
-            10.0,
-            0.5,
-        );
-        assert_eq!(
-            damped,
-            Vector3::new(-1.0, 0.0, 0.0),
-            "damping acts along the axis only"
-        );
+        let damped = spring_force(&Vector3::new(1.5, 0.0, 0.0), &Vector3::new(2.0, 1.0, 0.0), 1.5, 10.0, 0.5);
+        assert_eq!(damped, Vector3::new(-1.0, 0.0, 0.0), "damping acts along the axis only");
     }
 
     #[test]
@@ -229,19 +198,13 @@ mod tests {
             Vector3::new(0.7, 0.0, -0.6),
         ];
         let w = hinge_weights(&flat);
-        assert!(
-            hinge_curvature(&w, &flat).norm() < 1e-12,
-            "flat rest hinge is unbent"
-        );
+        assert!(hinge_curvature(&w, &flat).norm() < 1e-12, "flat rest hinge is unbent");
         let mut folded = flat;
         let rotation = nalgebra::Rotation3::new(Vector3::x() * theta);
         folded[3] = rotation * flat[3];
         let areas = 0.5 * (0.5 + 0.6);
         let expected = theta * theta / areas;
         let energy = hinge_curvature(&w, &folded).norm_squared();
-        assert!(
-            (energy / expected - 1.0).abs() < 1e-3,
-            "{energy} vs {expected}"
-        );
+        assert!((energy / expected - 1.0).abs() < 1e-3, "{energy} vs {expected}");
     }
 }

@@ -47,17 +47,14 @@ impl ParticleCoefficients {
     /// Coefficients of every particle of `cloth`.
     pub fn new(cloth: &Cloth) -> Self {
         let n = cloth.vertex_count();
-        let per_vertex = |f: &dyn Fn(&super::fabric::Fabric) -> f64| {
-            (0..n).map(|i| f(cloth.fabric_of(i))).collect::<Vec<f64>>()
-        };
+        let per_vertex =
+            |f: &dyn Fn(&super::fabric::Fabric) -> f64| (0..n).map(|i| f(cloth.fabric_of(i))).collect::<Vec<f64>>();
         ParticleCoefficients {
             mass: cloth.mass.clone(),
             air_damping: per_vertex(&|f| f.air_damping_per_s),
             bend_stiffness: per_vertex(&|f| f.bend_stiffness_n_m),
             bend_damping: per_vertex(&|f| f.bend_damping_n_m_s),
-            gravity: (0..n)
-                .map(|i| Vector3::from(cloth.fabric_of(i).gravity_m_per_s2))
-                .collect(),
+            gravity: (0..n).map(|i| Vector3::from(cloth.fabric_of(i).gravity_m_per_s2)).collect(),
         }
     }
 }
@@ -68,11 +65,7 @@ impl SpringCoefficients {
         let (stiffness, damping) = cloth
             .garments
             .iter()
-            .flat_map(|g| {
-                g.springs
-                    .clone()
-                    .map(move |s| cloth.spring_coefficients(s, &g.fabric))
-            })
+            .flat_map(|g| g.springs.clone().map(move |s| cloth.spring_coefficients(s, &g.fabric)))
             .unzip();
         SpringCoefficients { stiffness, damping }
     }
@@ -100,10 +93,8 @@ impl SystemLayout {
     /// Builds the layout of `cloth`.
     pub fn new(cloth: &Cloth) -> Self {
         let n = cloth.vertex_count();
-        let hinge_pairs = cloth
-            .hinge_vertices
-            .iter()
-            .flat_map(|h| (0..4).flat_map(move |a| (a + 1..4).map(move |b| [h[a], h[b]])));
+        let hinge_pairs =
+            cloth.hinge_vertices.iter().flat_map(|h| (0..4).flat_map(move |a| (a + 1..4).map(move |b| [h[a], h[b]])));
         let pattern = BlockPattern::new(n, cloth.spring_ends.iter().copied().chain(hinge_pairs));
 
         let mut per_slot: Vec<Vec<u32>> = vec![Vec::new(); pattern.stored_blocks()];
@@ -135,16 +126,8 @@ impl SystemLayout {
                 }
             }
         }
-        let slot_row = (0..n)
-            .flat_map(|i| pattern.row(i).map(move |_| i as u32))
-            .collect();
-        SystemLayout {
-            pattern,
-            slot_row,
-            slot_spring_start,
-            slot_springs,
-            bend_coupling,
-        }
+        let slot_row = (0..n).flat_map(|i| pattern.row(i).map(move |_| i as u32)).collect();
+        SystemLayout { pattern, slot_row, slot_spring_start, slot_springs, bend_coupling }
     }
 
     fn springs_of_slot(&self, slot: usize) -> &[u32] {
@@ -176,22 +159,13 @@ pub struct AssemblyInput<'a> {
 
 /// Computes every spring's system block `h C + h² K` and force term
 /// `f − h K (v₀ − v₁)` (the spring's share of `f₀ + h ∂f/∂x v₀` on its first end).
-pub fn evaluate_springs(
-    cloth: &Cloth,
-    coeffs: &SpringCoefficients,
-    input: &AssemblyInput,
-    out: &mut SystemBuffers,
-) {
+pub fn evaluate_springs(cloth: &Cloth, coeffs: &SpringCoefficients, input: &AssemblyInput, out: &mut SystemBuffers) {
     let m = cloth.spring_count();
     out.spring_block.resize(m, Matrix3::zeros());
     out.spring_term.resize(m, Vector3::zeros());
     let h = input.h;
-    out.spring_block
-        .par_iter_mut()
-        .zip(out.spring_term.par_iter_mut())
-        .enumerate()
-        .with_min_len(CHUNK)
-        .for_each(|(s, (block, term))| {
+    out.spring_block.par_iter_mut().zip(out.spring_term.par_iter_mut()).enumerate().with_min_len(CHUNK).for_each(
+        |(s, (block, term))| {
             let [a, b] = cloth.spring_ends[s].map(|i| i as usize);
             let d = input.x[a] - input.x[b];
             let dv = input.v[a] - input.v[b];
@@ -199,7 +173,8 @@ pub fn evaluate_springs(
             let stiffness = spring_stiffness_definite(&d, cloth.rest_length[s], k);
             *block = spring_damping_matrix(&d, c) * h + stiffness * (h * h);
             *term = spring_force(&d, &dv, cloth.rest_length[s], k, c) - stiffness * dv * h;
-        });
+        },
+    );
 }
 
 /// Fills `A` (one parallel pass over block slots) and `b` (one over rows) from
@@ -215,49 +190,34 @@ pub fn assemble(
     let bend_scale = |i: usize| h * h * particles.bend_stiffness[i] + h * particles.bend_damping[i];
     out.matrix.resize(pattern.stored_blocks(), Matrix3::zeros());
     out.rhs.resize(pattern.rows(), Vector3::zeros());
-    let SystemBuffers {
-        matrix,
-        rhs,
-        spring_block,
-        spring_term,
-    } = out;
+    let SystemBuffers { matrix, rhs, spring_block, spring_term } = out;
 
-    matrix
-        .par_iter_mut()
-        .enumerate()
-        .with_min_len(CHUNK)
-        .for_each(|(slot, block)| {
-            let i = layout.slot_row[slot] as usize;
-            let springs: Matrix3<f64> = layout
-                .springs_of_slot(slot)
-                .iter()
-                .map(|&code| spring_block[(code / 2) as usize])
-                .sum();
-            let bend = Matrix3::identity() * (bend_scale(i) * layout.bend_coupling[slot]);
-            *block = if slot == pattern.diagonal(i) {
-                let (m, air) = (particles.mass[i], particles.air_damping[i]);
-                Matrix3::identity() * (m * (1.0 + h * air)) + springs + bend
-            } else {
-                bend - springs
-            };
-        });
-
-    rhs.par_iter_mut()
-        .enumerate()
-        .with_min_len(CHUNK)
-        .for_each(|(i, bi)| {
+    matrix.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(slot, block)| {
+        let i = layout.slot_row[slot] as usize;
+        let springs: Matrix3<f64> =
+            layout.springs_of_slot(slot).iter().map(|&code| spring_block[(code / 2) as usize]).sum();
+        let bend = Matrix3::identity() * (bend_scale(i) * layout.bend_coupling[slot]);
+        *block = if slot == pattern.diagonal(i) {
             let (m, air) = (particles.mass[i], particles.air_damping[i]);
-            let (kb, cb) = (particles.bend_stiffness[i], particles.bend_damping[i]);
-            let mut force = particles.gravity[i] * m - input.v[i] * (air * m);
-            for &code in layout.springs_of_slot(pattern.diagonal(i)) {
-                let term = spring_term[(code / 2) as usize];
-                force += if code % 2 == 0 { term } else { -term };
-            }
-            let qx = pattern.scalar_row_product(&layout.bend_coupling, i, input.x);
-            let qv = pattern.scalar_row_product(&layout.bend_coupling, i, input.v);
-            force -= qx * kb + qv * (cb + h * kb);
-            *bi = force * h;
-        });
+            Matrix3::identity() * (m * (1.0 + h * air)) + springs + bend
+        } else {
+            bend - springs
+        };
+    });
+
+    rhs.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(i, bi)| {
+        let (m, air) = (particles.mass[i], particles.air_damping[i]);
+        let (kb, cb) = (particles.bend_stiffness[i], particles.bend_damping[i]);
+        let mut force = particles.gravity[i] * m - input.v[i] * (air * m);
+        for &code in layout.springs_of_slot(pattern.diagonal(i)) {
+            let term = spring_term[(code / 2) as usize];
+            force += if code % 2 == 0 { term } else { -term };
+        }
+        let qx = pattern.scalar_row_product(&layout.bend_coupling, i, input.x);
+        let qv = pattern.scalar_row_product(&layout.bend_coupling, i, input.v);
+        force -= qx * kb + qv * (cb + h * kb);
+        *bi = force * h;
+    });
 }
 
 /// Net force on every particle (springs with damping, bending with damping,
@@ -272,14 +232,8 @@ pub fn net_forces(
 ) -> Vec<Vector3<f64>> {
     let mut forces: Vec<Vector3<f64>> = (0..x.len())
         .map(|i| {
-            let bend = layout
-                .pattern
-                .scalar_row_product(&layout.bend_coupling, i, x)
-                * particles.bend_stiffness[i]
-                + layout
-                    .pattern
-                    .scalar_row_product(&layout.bend_coupling, i, v)
-                    * particles.bend_damping[i];
+            let bend = layout.pattern.scalar_row_product(&layout.bend_coupling, i, x) * particles.bend_stiffness[i]
+                + layout.pattern.scalar_row_product(&layout.bend_coupling, i, v) * particles.bend_damping[i];
             (particles.gravity[i] - v[i] * particles.air_damping[i]) * particles.mass[i] - bend
         })
         .collect();
@@ -322,18 +276,15 @@ mod tests {
             .enumerate()
             .map(|(i, p)| p * 1.02 + Vector3::new(0.0, 0.01 * (i as f64 * 1.3).sin(), 0.0))
             .collect();
-        let v: Vec<Vector3<f64>> = (0..n)
-            .map(|i| Vector3::new((i as f64).cos(), 0.3, (i as f64 * 0.7).sin()))
-            .collect();
+        let v: Vec<Vector3<f64>> =
+            (0..n).map(|i| Vector3::new((i as f64).cos(), 0.3, (i as f64 * 0.7).sin())).collect();
         let h = 0.01;
         let mut buffers = SystemBuffers::default();
         let input = AssemblyInput { x: &x, v: &v, h };
         evaluate_springs(&cloth, &springs, &input, &mut buffers);
         assemble(&layout, &particles, &input, &mut buffers);
 
-        let f = |x: &[Vector3<f64>], v: &[Vector3<f64>]| {
-            net_forces(&cloth, &layout, &particles, &springs, x, v)
-        };
+        let f = |x: &[Vector3<f64>], v: &[Vector3<f64>]| net_forces(&cloth, &layout, &particles, &springs, x, v);
         let eps = 1e-7;
         let f0 = f(&x, &v);
         // (∂f/∂x) v as a directional derivative. The damping force's position
@@ -349,10 +300,7 @@ mod tests {
         for i in 0..n {
             let kv = (gp[i] - gm[i]) / (2.0 * eps);
             let expected = (f0[i] + kv * h) * h;
-            assert!(
-                (buffers.rhs[i] - expected).norm() < 1e-6 * (1.0 + expected.norm()),
-                "row {i}"
-            );
+            assert!((buffers.rhs[i] - expected).norm() < 1e-6 * (1.0 + expected.norm()), "row {i}");
         }
 
         // Column j of A: M e_j − h ∂f/∂v e_j − h² ∂f/∂x e_j, by perturbing particle j.
@@ -375,20 +323,11 @@ mod tests {
                     .map(|(a, b)| (a - b) / (2.0 * eps))
                     .collect();
                 for i in 0..n {
-                    let mass = if i == j {
-                        Vector3::ith(axis, particles.mass[i])
-                    } else {
-                        Vector3::zeros()
-                    };
+                    let mass = if i == j { Vector3::ith(axis, particles.mass[i]) } else { Vector3::zeros() };
                     let expected = mass - dfdv[i] * h - dfdx[i] * (h * h);
-                    let got = layout
-                        .pattern
-                        .slot(i, j)
-                        .map_or(Vector3::zeros(), |s| buffers.matrix[s].column(axis).into());
-                    assert!(
-                        (got - expected).norm() < 1e-6,
-                        "A[{i},{j}] col {axis}: {got} vs {expected}"
-                    );
+                    let got =
+                        layout.pattern.slot(i, j).map_or(Vector3::zeros(), |s| buffers.matrix[s].column(axis).into());
+                    assert!((got - expected).norm() < 1e-6, "A[{i},{j}] col {axis}: {got} vs {expected}");
                 }
             }
         }

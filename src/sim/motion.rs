@@ -124,10 +124,7 @@ mod tests {
         let at = |t: f64| (motion.world_from_rest(t) * rest).coords;
         let numeric = (at(t + h) - at(t - h)) / (2.0 * h);
         let analytic = motion.velocity_at(&at(t), t);
-        assert!(
-            (numeric - analytic).norm() < 1e-6,
-            "{numeric} vs {analytic}"
-        );
+        assert!((numeric - analytic).norm() < 1e-6, "{numeric} vs {analytic}");
     }
 
     #[test]

@@ -28,11 +28,7 @@ pub fn sum(len: usize, partials: &mut Vec<f64>, term: impl Fn(usize) -> f64 + Sy
 
 /// `maxᵢ term(i)` over `0..len` (0 when empty). Exact in any order.
 pub fn max(len: usize, term: impl Fn(usize) -> f64 + Sync + Send) -> f64 {
-    (0..len)
-        .into_par_iter()
-        .with_min_len(CHUNK)
-        .map(term)
-        .reduce(|| 0.0, f64::max)
+    (0..len).into_par_iter().with_min_len(CHUNK).map(term).reduce(|| 0.0, f64::max)
 }
 
 #[cfg(test)]
@@ -41,14 +37,9 @@ mod tests {
 
     #[test]
     fn sum_is_identical_on_one_and_two_threads() {
-        let values: Vec<f64> = (0..10_000)
-            .map(|i| ((i * 7919) % 1000) as f64 * 1e-3 + 1e-9 * i as f64)
-            .collect();
+        let values: Vec<f64> = (0..10_000).map(|i| ((i * 7919) % 1000) as f64 * 1e-3 + 1e-9 * i as f64).collect();
         let run = |threads| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| sum(values.len(), &mut Vec::new(), |i| values[i] * values[i]))
         };
         assert_eq!(run(1).to_bits(), run(2).to_bits());

@@ -1,10 +1,12 @@
 //! Filtered preconditioned conjugate gradients (Baraff and Witkin 1998, §5.3).
 //!
-//! Solves `A x = b` for a symmetric positive-definite block matrix while rows
-//! marked *fixed* keep the value they start with: the residual and search
-//! directions are filtered to zero there, so pinned particles get exactly their
-//! prescribed velocity change. The preconditioner is the inverse of each 3×3
-//! diagonal block. All reductions go through [`super::parallel::sum`], so the
+//! Solves `A x = b` for a symmetric positive-definite block matrix while
+//! constrained rows keep part of the value they start with: the residual and
+//! search directions are filtered (projected) there, so a pinned particle keeps
+//! exactly its prescribed velocity change, and a particle in contact keeps its
+//! prescribed velocity change along the contact normal while sliding freely
+//! along the surface. The preconditioner is the inverse of each 3×3 diagonal
+//! block. All reductions go through [`super::parallel::sum`], so the
 //! result is bit-identical at any thread count.
 
 use nalgebra::{Matrix3, Vector3};
@@ -13,11 +15,35 @@ use rayon::prelude::*;
 use super::parallel::{self, CHUNK};
 use super::sparse::BlockPattern;
 
+/// What the solve may change in one particle's row.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Constraint {
+    /// All three components.
+    #[default]
+    Free,
+    /// Nothing: the row keeps its starting value.
+    Fixed,
+    /// Everything but the component along this unit normal.
+    Normal(Vector3<f64>),
+}
+
+impl Constraint {
+    /// Projects `v` onto the directions the solve may change.
+    pub fn filter(&self, v: Vector3<f64>) -> Vector3<f64> {
+        match self {
+            Constraint::Free => v,
+            Constraint::Fixed => Vector3::zeros(),
+            Constraint::Normal(n) => v - n * n.dot(&v),
+        }
+    }
+}
+
 /// When to stop.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PcgSettings {
     /// Stop when the preconditioned residual norm falls below this fraction of
-    /// the right-hand side's, unitless.
+    /// the reference: the larger of the right-hand side's norm and the
+    /// `typical` right-hand side's (see [`solve`]), unitless.
     pub tolerance: f64,
     /// Stop after this many iterations even if not converged.
     pub max_iterations: u32,
@@ -47,68 +73,53 @@ pub struct PcgWorkspace {
 
 impl PcgWorkspace {
     fn resize(&mut self, n: usize) {
-        for v in [
-            &mut self.residual,
-            &mut self.direction,
-            &mut self.product,
-            &mut self.preconditioned,
-        ] {
+        for v in [&mut self.residual, &mut self.direction, &mut self.product, &mut self.preconditioned] {
             v.resize(n, Vector3::zeros());
         }
         self.inverse_diagonal.resize(n, Matrix3::zeros());
     }
 }
 
-/// Solves `A x = b` (block values `a` on `pattern`) starting from `x`; rows with
-/// `fixed[i]` keep `x[i]`.
+/// Solves `A x = b` (block values `a` on `pattern`) starting from `x`; row `i`
+/// changes only in the directions `constraints[i]` leaves free.
+///
+/// `typical` is a right-hand side of the size that matters (for cloth, each
+/// particle's weight over a step): near equilibrium `b` itself tends to zero,
+/// and a tolerance relative to it alone would ask for ever more digits.
 pub fn solve(
     pattern: &BlockPattern,
     a: &[Matrix3<f64>],
     b: &[Vector3<f64>],
-    fixed: &[bool],
+    typical: &[Vector3<f64>],
+    constraints: &[Constraint],
     x: &mut [Vector3<f64>],
     settings: PcgSettings,
     ws: &mut PcgWorkspace,
 ) -> PcgReport {
     let n = b.len();
     ws.resize(n);
-    ws.inverse_diagonal
-        .par_iter_mut()
-        .enumerate()
-        .with_min_len(CHUNK)
-        .for_each(|(i, p)| {
-            let block = a[pattern.diagonal(i)];
-            *p = block
-                .try_inverse()
-                .unwrap_or_else(|| Matrix3::from_diagonal(&block.diagonal().map(|d| 1.0 / d)));
-        });
-    let filter = |i: usize, v: Vector3<f64>| if fixed[i] { Vector3::zeros() } else { v };
+    ws.inverse_diagonal.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(i, p)| {
+        let block = a[pattern.diagonal(i)];
+        *p = block.try_inverse().unwrap_or_else(|| Matrix3::from_diagonal(&block.diagonal().map(|d| 1.0 / d)));
+    });
+    let filter = |i: usize, v: Vector3<f64>| constraints[i].filter(v);
 
-    let reference = parallel::sum(n, &mut ws.partials, |i| {
-        let bi = filter(i, b[i]);
-        bi.dot(&(ws.inverse_diagonal[i] * bi))
-    });
+    let norm = |v: &[Vector3<f64>], partials: &mut Vec<f64>, inverse_diagonal: &[Matrix3<f64>]| {
+        parallel::sum(n, partials, |i| {
+            let vi = filter(i, v[i]);
+            vi.dot(&(inverse_diagonal[i] * vi))
+        })
+    };
+    let reference =
+        norm(b, &mut ws.partials, &ws.inverse_diagonal).max(norm(typical, &mut ws.partials, &ws.inverse_diagonal));
     pattern.multiply(a, x, &mut ws.product);
-    let PcgWorkspace {
-        residual,
-        direction,
-        product,
-        preconditioned,
-        inverse_diagonal,
-        partials,
-    } = ws;
+    let PcgWorkspace { residual, direction, product, preconditioned, inverse_diagonal, partials } = ws;
     par_each(residual, |i, r| *r = filter(i, b[i] - product[i]));
-    par_each(direction, |i, d| {
-        *d = filter(i, inverse_diagonal[i] * residual[i])
-    });
+    par_each(direction, |i, d| *d = filter(i, inverse_diagonal[i] * residual[i]));
     let mut delta = parallel::sum(n, partials, |i| residual[i].dot(&direction[i]));
     let threshold = settings.tolerance * settings.tolerance * reference;
     let relative = |delta: f64| {
-        if reference > 0.0 {
-            (delta / reference).max(0.0).sqrt()
-        } else {
-            0.0
-        }
+        if reference > 0.0 { (delta / reference).max(0.0).sqrt() } else { 0.0 }
     };
 
     let mut iterations = 0;
@@ -120,32 +131,21 @@ pub fn solve(
             break;
         }
         let alpha = delta / curvature;
-        x.par_chunks_mut(CHUNK)
-            .zip(residual.par_chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(|(c, (xs, rs))| {
-                for (k, (xi, ri)) in xs.iter_mut().zip(rs.iter_mut()).enumerate() {
-                    let i = c * CHUNK + k;
-                    *xi += direction[i] * alpha;
-                    *ri -= product[i] * alpha;
-                }
-            });
-        par_each(preconditioned, |i, s| {
-            *s = inverse_diagonal[i] * residual[i]
+        x.par_chunks_mut(CHUNK).zip(residual.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (xs, rs))| {
+            for (k, (xi, ri)) in xs.iter_mut().zip(rs.iter_mut()).enumerate() {
+                let i = c * CHUNK + k;
+                *xi += direction[i] * alpha;
+                *ri -= product[i] * alpha;
+            }
         });
+        par_each(preconditioned, |i, s| *s = filter(i, inverse_diagonal[i] * residual[i]));
         let previous = delta;
         delta = parallel::sum(n, partials, |i| residual[i].dot(&preconditioned[i]));
         let beta = delta / previous;
-        par_each(direction, |i, d| {
-            *d = filter(i, preconditioned[i] + *d * beta)
-        });
+        par_each(direction, |i, d| *d = filter(i, preconditioned[i] + *d * beta));
         iterations += 1;
     }
-    PcgReport {
-        iterations,
-        relative_residual: relative(delta),
-        converged: delta <= threshold,
-    }
+    PcgReport { iterations, relative_residual: relative(delta), converged: delta <= threshold }
 }
 
 /// Sets every element of `v` from its index, in parallel chunks.
@@ -169,9 +169,7 @@ mod tests {
         let mut a = vec![Matrix3::zeros(); pattern.stored_blocks()];
         let mut seed = 12345u64;
         let mut rand = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (seed >> 33) as f64 / (1u64 << 31) as f64 - 0.5
         };
         for i in 0..n {
@@ -185,9 +183,7 @@ mod tests {
             }
             a[pattern.diagonal(i)] += Matrix3::identity() * 0.05;
         }
-        let b = (0..n)
-            .map(|_| Vector3::new(rand(), rand(), rand()))
-            .collect();
+        let b = (0..n).map(|_| Vector3::new(rand(), rand(), rand())).collect();
         (pattern, a, b)
     }
 
@@ -196,17 +192,13 @@ mod tests {
         let mut m = DMatrix::zeros(3 * n, 3 * n);
         for i in 0..n {
             for s in pattern.row(i) {
-                m.view_mut((3 * i, 3 * pattern.column(s)), (3, 3))
-                    .copy_from(&a[s]);
+                m.view_mut((3 * i, 3 * pattern.column(s)), (3, 3)).copy_from(&a[s]);
             }
         }
         m
     }
 
-    const TIGHT: PcgSettings = PcgSettings {
-        tolerance: 1e-12,
-        max_iterations: 1000,
-    };
+    const TIGHT: PcgSettings = PcgSettings { tolerance: 1e-12, max_iterations: 1000 };
 
     #[test]
     fn pcg_matches_a_dense_cholesky_solve() {
@@ -216,7 +208,8 @@ mod tests {
             &pattern,
             &a,
             &b,
-            &[false; 20],
+            &[Vector3::zeros(); 20],
+            &[Constraint::Free; 20],
             &mut x,
             TIGHT,
             &mut PcgWorkspace::default(),
@@ -230,31 +223,27 @@ mod tests {
     }
 
     #[test]
-    fn fixed_rows_keep_their_value_exactly_and_the_rest_solve_the_reduced_system() {
+    fn constrained_rows_keep_their_prescribed_part_and_the_rest_solve_the_system() {
         let n = 12;
         let (pattern, a, b) = ring_system(n);
-        let mut fixed = vec![false; n];
-        fixed[3] = true;
-        fixed[7] = true;
+        let mut constraints = vec![Constraint::Free; n];
+        constraints[3] = Constraint::Fixed;
+        constraints[7] = Constraint::Fixed;
+        let normal = Vector3::new(1.0, 2.0, 2.0) / 3.0;
+        constraints[9] = Constraint::Normal(normal);
         let prescribed = Vector3::new(0.25, -1.5, 3.0);
         let mut x = vec![Vector3::zeros(); n];
         x[3] = prescribed;
-        solve(
-            &pattern,
-            &a,
-            &b,
-            &fixed,
-            &mut x,
-            TIGHT,
-            &mut PcgWorkspace::default(),
-        );
+        x[9] = normal * 0.5;
+        solve(&pattern, &a, &b, &vec![Vector3::zeros(); n], &constraints, &mut x, TIGHT, &mut PcgWorkspace::default());
         assert_eq!(x[3], prescribed);
         assert_eq!(x[7], Vector3::zeros());
-        // Free rows satisfy their equations.
+        assert!((x[9].dot(&normal) - 0.5).abs() < 1e-12, "the normal component is kept");
+        // Every row satisfies its equation in the directions it was free in.
         let mut ax = vec![Vector3::zeros(); n];
         pattern.multiply(&a, &x, &mut ax);
-        for i in (0..n).filter(|&i| !fixed[i]) {
-            assert!((ax[i] - b[i]).norm() < 1e-8, "row {i}");
+        for i in 0..n {
+            assert!(constraints[i].filter(ax[i] - b[i]).norm() < 1e-8, "row {i}");
         }
     }
 
@@ -262,35 +251,42 @@ mod tests {
     fn loose_tolerance_stops_early_and_says_so() {
         let (pattern, a, b) = ring_system(40);
         let mut x = vec![Vector3::zeros(); 40];
-        let settings = PcgSettings {
-            tolerance: 1e-2,
-            max_iterations: 1000,
-        };
+        let settings = PcgSettings { tolerance: 1e-2, max_iterations: 1000 };
         let report = solve(
             &pattern,
             &a,
             &b,
-            &[false; 40],
+            &[Vector3::zeros(); 40],
+            &[Constraint::Free; 40],
             &mut x,
             settings,
             &mut PcgWorkspace::default(),
         );
         assert!(report.converged && report.relative_residual <= 1e-2);
-        let capped = PcgSettings {
-            tolerance: 1e-14,
-            max_iterations: 2,
-        };
+        let capped = PcgSettings { tolerance: 1e-14, max_iterations: 2 };
         let mut x = vec![Vector3::zeros(); 40];
         let report = solve(
             &pattern,
             &a,
             &b,
-            &[false; 40],
+            &[Vector3::zeros(); 40],
+            &[Constraint::Free; 40],
             &mut x,
             capped,
             &mut PcgWorkspace::default(),
         );
         assert_eq!(report.iterations, 2);
         assert!(!report.converged);
+    }
+
+    #[test]
+    fn a_typical_right_hand_side_bounds_the_precision_asked_for() {
+        let (pattern, a, b) = ring_system(40);
+        let tiny: Vec<_> = b.iter().map(|v| v * 1e-9).collect();
+        let settings = PcgSettings { tolerance: 1e-3, max_iterations: 1000 };
+        let mut x = vec![Vector3::zeros(); 40];
+        let free = [Constraint::Free; 40];
+        let report = solve(&pattern, &a, &tiny, &b, &free, &mut x, settings, &mut PcgWorkspace::default());
+        assert_eq!(report.iterations, 0, "a residual of 1e-9 of the typical size is already converged");
     }
 }

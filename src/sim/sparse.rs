@@ -36,16 +36,9 @@ impl BlockPattern {
         }
         let columns: Vec<u32> = entries.iter().map(|&(_, c)| c).collect();
         let diagonal = (0..n)
-            .map(|i| {
-                row_start[i]
-                    + columns[row_start[i]..row_start[i + 1]].partition_point(|&c| c < i as u32)
-            })
+            .map(|i| row_start[i] + columns[row_start[i]..row_start[i + 1]].partition_point(|&c| c < i as u32))
             .collect();
-        BlockPattern {
-            row_start,
-            columns,
-            diagonal,
-        }
+        BlockPattern { row_start, columns, diagonal }
     }
 
     /// Number of block rows.
@@ -77,9 +70,7 @@ impl BlockPattern {
     pub fn slot(&self, row: usize, col: usize) -> Option<usize> {
         let range = self.row(row);
         let cols = &self.columns[range.clone()];
-        cols.binary_search(&(col as u32))
-            .ok()
-            .map(|k| range.start + k)
+        cols.binary_search(&(col as u32)).ok().map(|k| range.start + k)
     }
 
     /// `y = A x` for block values `a`, parallel over rows.
@@ -117,22 +108,15 @@ mod tests {
     #[test]
     fn multiply_matches_dense_product() {
         let p = BlockPattern::new(3, [[0, 1], [1, 2]]);
-        let a: Vec<Matrix3<f64>> = (0..p.stored_blocks())
-            .map(|s| Matrix3::from_fn(|r, c| (s * 9 + r * 3 + c) as f64 * 0.1))
-            .collect();
-        let x = vec![
-            Vector3::new(1.0, 2.0, 3.0),
-            Vector3::new(-1.0, 0.5, 0.0),
-            Vector3::new(0.0, 0.0, 2.0),
-        ];
+        let a: Vec<Matrix3<f64>> =
+            (0..p.stored_blocks()).map(|s| Matrix3::from_fn(|r, c| (s * 9 + r * 3 + c) as f64 * 0.1)).collect();
+        let x = vec![Vector3::new(1.0, 2.0, 3.0), Vector3::new(-1.0, 0.5, 0.0), Vector3::new(0.0, 0.0, 2.0)];
         let mut y = vec![Vector3::zeros(); 3];
         p.multiply(&a, &x, &mut y);
         let mut dense = nalgebra::DMatrix::<f64>::zeros(9, 9);
         for i in 0..3 {
             for s in p.row(i) {
-                dense
-                    .view_mut((3 * i, 3 * p.column(s)), (3, 3))
-                    .copy_from(&a[s]);
+                dense.view_mut((3 * i, 3 * p.column(s)), (3, 3)).copy_from(&a[s]);
             }
         }
         let flat = nalgebra::DVector::from_iterator(9, x.iter().flat_map(|v| v.iter().copied()));

@@ -4,7 +4,15 @@
 //!
 //! 1. **springs**: every spring's force and system block (parallel);
 //! 2. **assembly**: the backward-Euler matrix and right-hand side (parallel);
-//! 3. **solve**: filtered PCG for the velocity change, pins prescribed;
+//! 3. **solve**: filtered PCG for the velocity change, with pins prescribed and
+//!    particles resting on a collider held to its surface velocity along the
+//!    normal. Then detect → respond passes: particles whose solved path would
+//!    reach a collider are constrained to arrive at its surface, sticking
+//!    particles whose impulse leaves the friction cone start to slide, and the
+//!    system is solved again, so the whole cloth feels each change within the
+//!    step.
+//!    The constraint impulses give the friction (eq. 15), and a contact whose
+//!    impulse pulls instead of pushing is released for the next step;
 //! 4. **collisions**: each particle's path against the analytic colliders;
 //! 5. **finish**: pins placed exactly, finiteness check, commit, strain.
 //!
@@ -20,14 +28,21 @@ use rayon::prelude::*;
 
 use super::cloth::{Cloth, SpringKind};
 use super::colliders::Collider;
-use super::contact::{ParticleSurface, StepWindow, resolve_particle};
+use super::contact::{ParticleSurface, StepWindow, SurfaceContact, resolve_particle};
 use super::implicit::{
-    AssemblyInput, ParticleCoefficients, SpringCoefficients, SystemBuffers, SystemLayout, assemble,
-    evaluate_springs, net_forces,
+    AssemblyInput, ParticleCoefficients, SpringCoefficients, SystemBuffers, SystemLayout, assemble, evaluate_springs,
+    net_forces,
 };
 use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
-use super::pcg::{self, PcgReport, PcgSettings, PcgWorkspace};
+use super::pcg::{self, Constraint, PcgReport, PcgSettings, PcgWorkspace};
+
+/// No collider (in per-particle collider indices).
+const NO_COLLIDER: u32 = u32::MAX;
+
+/// Most solves per step when new contacts keep appearing; contacts still new
+/// after the last are handled by the collision stage alone.
+const CONTACT_PASSES: u32 = 4;
 
 /// A particle held by the scene: fixed where it starts, or carried by a motion.
 #[derive(Clone, Debug, PartialEq)]
@@ -124,6 +139,11 @@ pub struct StepReport {
     pub mean_strain: f64,
     /// Particle-collider contacts handled.
     pub contacts: u32,
+    /// Particles held to a collider's surface in the solve.
+    pub resting_contacts: u32,
+    /// Linear solves run (one, plus one per detect → respond pass that found
+    /// new contacts).
+    pub solves: u32,
 }
 
 /// Reusable buffers of a step.
@@ -131,6 +151,10 @@ pub struct StepReport {
 struct Workspace {
     system: SystemBuffers,
     pcg: PcgWorkspace,
+    constraints: Vec<Constraint>,
+    surface_contacts: Vec<Option<SurfaceContact>>,
+    residual: Vec<Vector3<f64>>,
+    weight_impulse: Vec<Vector3<f64>>,
     velocity_change: Vec<Vector3<f64>>,
     next_x: Vec<Vector3<f64>>,
     next_v: Vec<Vector3<f64>>,
@@ -150,6 +174,15 @@ pub struct Simulator {
     pins: Vec<Pin>,
     pin_rest: Vec<Vector3<f64>>,
     fixed: Vec<bool>,
+    /// Collider each particle rested on at the end of the last step.
+    resting_on: Vec<u32>,
+    /// Particles whose contact pulled in the last solve: free for one step.
+    released: Vec<bool>,
+    /// Particles static friction held at the end of the last step.
+    sticking: Vec<bool>,
+    /// Sticking particles whose constraint impulse left the friction cone in
+    /// this step's solve: they slide from the next step.
+    slipping: Vec<bool>,
     colliders: Vec<Collider>,
     settings: PcgSettings,
     x: Vec<Vector3<f64>>,
@@ -171,10 +204,7 @@ impl Simulator {
             return Err(SimError::Empty);
         }
         if let Some(pin) = pins.iter().find(|p| p.vertex as usize >= n) {
-            return Err(SimError::PinOutOfRange {
-                vertex: pin.vertex,
-                count: n,
-            });
+            return Err(SimError::PinOutOfRange { vertex: pin.vertex, count: n });
         }
         let mut fixed = vec![false; n];
         for pin in &pins {
@@ -183,10 +213,7 @@ impl Simulator {
         let surfaces = (0..n)
             .map(|i| {
                 let f = cloth.fabric_of(i);
-                ParticleSurface {
-                    thickness: f.thickness_m,
-                    friction: f.friction,
-                }
+                ParticleSurface { thickness: f.thickness_m, friction: f.friction }
             })
             .collect();
         let stretch_springs = (0..cloth.spring_count() as u32)
@@ -198,12 +225,13 @@ impl Simulator {
             springs: SpringCoefficients::new(&cloth),
             surfaces,
             stretch_springs,
-            pin_rest: pins
-                .iter()
-                .map(|p| cloth.rest_positions[p.vertex as usize])
-                .collect(),
+            pin_rest: pins.iter().map(|p| cloth.rest_positions[p.vertex as usize]).collect(),
             pins,
             fixed,
+            resting_on: vec![NO_COLLIDER; n],
+            released: vec![false; n],
+            sticking: vec![false; n],
+            slipping: vec![false; n],
             colliders,
             settings,
             x: cloth.rest_positions.clone(),
@@ -246,31 +274,15 @@ impl Simulator {
 
     /// Kinetic energy ½ Σ m v², J.
     pub fn kinetic_energy(&self) -> f64 {
-        0.5 * self
-            .v
-            .iter()
-            .zip(&self.particles.mass)
-            .map(|(v, m)| m * v.norm_squared())
-            .sum::<f64>()
+        0.5 * self.v.iter().zip(&self.particles.mass).map(|(v, m)| m * v.norm_squared()).sum::<f64>()
     }
 
     /// Force the pins exert on the cloth to hold it as it is now, N: the
     /// negative of the net force (springs, bending, gravity, damping) on the
     /// pinned particles.
     pub fn pin_reaction(&self) -> Vector3<f64> {
-        let forces = net_forces(
-            &self.cloth,
-            &self.layout,
-            &self.particles,
-            &self.springs,
-            &self.x,
-            &self.v,
-        );
-        -self
-            .pins
-            .iter()
-            .map(|p| forces[p.vertex as usize])
-            .sum::<Vector3<f64>>()
+        let forces = net_forces(&self.cloth, &self.layout, &self.particles, &self.springs, &self.x, &self.v);
+        -self.pins.iter().map(|p| forces[p.vertex as usize]).sum::<Vector3<f64>>()
     }
 
     /// Where pin `k` must be at time `t`, m.
@@ -285,10 +297,7 @@ impl Simulator {
     /// Advances by one backward-Euler step of `h` seconds.
     pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
         let n = self.x.len();
-        let window = StepWindow {
-            t0: self.time,
-            t1: self.time + h,
-        };
+        let window = StepWindow { t0: self.time, t1: self.time + h };
         let mut clock = Instant::now();
         let mut lap = || {
             let now = Instant::now();
@@ -298,53 +307,57 @@ impl Simulator {
         };
         let mut report = StepReport::default();
 
-        let input = AssemblyInput {
-            x: &self.x,
-            v: &self.v,
-            h,
-        };
+        let input = AssemblyInput { x: &self.x, v: &self.v, h };
         evaluate_springs(&self.cloth, &self.springs, &input, &mut self.ws.system);
         report.timings.springs = lap();
         assemble(&self.layout, &self.particles, &input, &mut self.ws.system);
         report.timings.assembly = lap();
 
         self.ws.velocity_change.resize(n, Vector3::zeros());
-        for k in 0..self.pins.len() {
-            let i = self.pins[k].vertex as usize;
-            let target = self.pin_target(k, window.t1);
-            self.ws.velocity_change[i] = (target - self.x[i]) / h - self.v[i];
+        report.resting_contacts = self.prepare_constraints(window);
+        let (mass, gravity) = (&self.particles.mass, &self.particles.gravity);
+        self.ws.weight_impulse.clear();
+        self.ws.weight_impulse.extend((0..n).map(|i| gravity[i] * (mass[i] * h)));
+        loop {
+            let solve = pcg::solve(
+                &self.layout.pattern,
+                &self.ws.system.matrix,
+                &self.ws.system.rhs,
+                &self.ws.weight_impulse,
+                &self.ws.constraints,
+                &mut self.ws.velocity_change,
+                self.settings,
+                &mut self.ws.pcg,
+            );
+            report.solver = PcgReport { iterations: report.solver.iterations + solve.iterations, ..solve };
+            report.solves += 1;
+            if report.solves == CONTACT_PASSES || self.colliders.is_empty() {
+                break;
+            }
+            let slipped = if report.resting_contacts > 0 { self.slip_outside_cone() } else { 0 };
+            let new_contacts = self.predict_contacts(window);
+            report.resting_contacts += new_contacts;
+            if slipped + new_contacts == 0 {
+                break;
+            }
         }
-        report.solver = pcg::solve(
-            &self.layout.pattern,
-            &self.ws.system.matrix,
-            &self.ws.system.rhs,
-            &self.fixed,
-            &mut self.ws.velocity_change,
-            self.settings,
-            &mut self.ws.pcg,
-        );
+        if report.resting_contacts > 0 {
+            self.apply_contact_impulses();
+        }
         report.timings.solve = lap();
 
         report.contacts = self.integrate_and_collide(window);
+        self.update_sticking(window);
         report.timings.collisions = lap();
 
         for k in 0..self.pins.len() {
             let i = self.pins[k].vertex as usize;
             self.ws.next_x[i] = self.pin_target(k, window.t1);
         }
-        let bad = |v: &[Vector3<f64>]| {
-            v.par_iter()
-                .position_first(|p| !p.iter().all(|c| c.is_finite()))
-        };
+        let bad = |v: &[Vector3<f64>]| v.par_iter().position_first(|p| !p.iter().all(|c| c.is_finite()));
         if let Some(particle) = bad(&self.ws.next_x).or_else(|| bad(&self.ws.next_v)) {
-            self.ws
-                .velocity_change
-                .iter_mut()
-                .for_each(|d| *d = Vector3::zeros());
-            return Err(StepError::NonFinite {
-                time: window.t1,
-                particle,
-            });
+            self.ws.velocity_change.iter_mut().for_each(|d| *d = Vector3::zeros());
+            return Err(StepError::NonFinite { time: window.t1, particle });
         }
         std::mem::swap(&mut self.x, &mut self.ws.next_x);
         std::mem::swap(&mut self.v, &mut self.ws.next_v);
@@ -354,8 +367,140 @@ impl Simulator {
         Ok(report)
     }
 
+    /// Sets each particle's constraint for the solve and the prescribed part of
+    /// its velocity change: pins move to their target; a particle resting on a
+    /// collider (and not released) keeps the surface's normal velocity.
+    /// Returns the number of resting contacts.
+    fn prepare_constraints(&mut self, window: StepWindow) -> u32 {
+        let n = self.x.len();
+        let ws = &mut self.ws;
+        ws.constraints.resize(n, Constraint::Free);
+        ws.surface_contacts.resize(n, None);
+        let (x, v, colliders) = (&self.x, &self.v, &self.colliders);
+        let (resting_on, released, fixed, sticking) = (&self.resting_on, &self.released, &self.fixed, &self.sticking);
+        ws.constraints
+            .par_iter_mut()
+            .zip(ws.surface_contacts.par_iter_mut())
+            .zip(ws.velocity_change.par_iter_mut())
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(i, ((constraint, contact), dv))| {
+                *contact = None;
+                *constraint = if fixed[i] { Constraint::Fixed } else { Constraint::Free };
+                if fixed[i] || released[i] || resting_on[i] == NO_COLLIDER {
+                    return;
+                }
+                let surface = SurfaceContact::resting(&x[i], colliders, resting_on[i], sticking[i], window);
+                *constraint = surface.constraint();
+                *dv = surface.prescribe(&v[i], dv);
+                *contact = Some(surface);
+            });
+        for k in 0..self.pins.len() {
+            let i = self.pins[k].vertex as usize;
+            let target = self.pin_target(k, window.t1);
+            self.ws.velocity_change[i] = (target - self.x[i]) / window.h() - self.v[i];
+        }
+        self.ws.surface_contacts.par_iter().filter(|c| c.is_some()).count() as u32
+    }
+
+    /// One detect pass: every particle still free whose solved path would
+    /// reach a collider becomes constrained to arrive at its surface. Returns
+    /// the number of new contacts.
+    fn predict_contacts(&mut self, window: StepWindow) -> u32 {
+        let ws = &mut self.ws;
+        let (x, v, colliders, surfaces) = (&self.x, &self.v, &self.colliders, &self.surfaces);
+        ws.constraints
+            .par_iter_mut()
+            .zip(ws.surface_contacts.par_iter_mut())
+            .zip(ws.velocity_change.par_iter_mut())
+            .enumerate()
+            .with_min_len(CHUNK)
+            .map(|(i, ((constraint, contact), dv))| {
+                if *constraint != Constraint::Free {
+                    return 0;
+                }
+                let end = x[i] + (v[i] + *dv) * window.h();
+                let Some(surface) = SurfaceContact::predicted(&x[i], &end, surfaces[i].thickness, colliders, window)
+                else {
+                    return 0;
+                };
+                *constraint = surface.constraint();
+                *dv = surface.prescribe(&v[i], dv);
+                *contact = Some(surface);
+                1
+            })
+            .sum()
+    }
+
+    /// Constraint impulses `b − A Δv` of the last solve, into the workspace.
+    fn constraint_impulses(&mut self) {
+        let ws = &mut self.ws;
+        ws.residual.resize(self.x.len(), Vector3::zeros());
+        self.layout.pattern.multiply(&ws.system.matrix, &ws.velocity_change, &mut ws.residual);
+        let rhs = &ws.system.rhs;
+        ws.residual.par_iter_mut().zip(rhs.par_iter()).with_min_len(CHUNK).for_each(|(r, b)| *r = b - *r);
+    }
+
+    /// One respond pass of static friction: every sticking contact whose
+    /// constraint impulse lies outside the friction cone starts sliding (its
+    /// tangential velocity is freed for the next solve). Returns how many.
+    fn slip_outside_cone(&mut self) -> u32 {
+        self.constraint_impulses();
+        let ws = &mut self.ws;
+        let (v, surfaces, colliders, impulses) = (&self.v, &self.surfaces, &self.colliders, &ws.residual);
+        ws.surface_contacts
+            .par_iter_mut()
+            .zip(ws.constraints.par_iter_mut().zip(ws.velocity_change.par_iter_mut()))
+            .enumerate()
+            .with_min_len(CHUNK)
+            .map(|(i, (contact, (constraint, dv)))| {
+                let Some(c) = contact.as_mut().filter(|c| c.sticking) else { return 0 };
+                let mu = colliders[c.collider as usize].friction.unwrap_or(surfaces[i].friction);
+                if !c.slips(&impulses[i], mu) {
+                    return 0;
+                }
+                c.sticking = false;
+                *constraint = c.constraint();
+                *dv = c.prescribe(&v[i], dv);
+                1
+            })
+            .sum()
+    }
+
+    /// Reads each contact's final constraint impulse. A pulling contact is
+    /// released for the next step; a sticking one whose impulse left the cone
+    /// after the last pass slips from the next step; a sliding one turns its
+    /// normal impulse into Coulomb friction.
+    fn apply_contact_impulses(&mut self) {
+        self.constraint_impulses();
+        let ws = &mut self.ws;
+        let (contacts, impulses) = (&ws.surface_contacts, &ws.residual);
+        let (v, mass, surfaces, colliders) = (&self.v, &self.particles.mass, &self.surfaces, &self.colliders);
+        ws.velocity_change
+            .par_iter_mut()
+            .zip(self.released.par_iter_mut().zip(self.slipping.par_iter_mut()))
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(i, (dv, (released, slipping)))| {
+                (*released, *slipping) = (false, false);
+                let Some(contact) = &contacts[i] else { return };
+                let normal_impulse = impulses[i].dot(&contact.normal);
+                if normal_impulse < 0.0 {
+                    *released = true;
+                    return;
+                }
+                let mu = colliders[contact.collider as usize].friction.unwrap_or(surfaces[i].friction);
+                if contact.sticking {
+                    *slipping = contact.slips(&impulses[i], mu);
+                } else {
+                    *dv = contact.with_friction(v[i] + *dv, normal_impulse / mass[i], mu) - v[i];
+                }
+            });
+    }
+
     /// `v ← v + Δv`, `x ← x + h v` into the next-state buffers, then each free
-    /// particle against the colliders. Returns the contact count.
+    /// particle against the colliders, noting which collider it ends resting
+    /// on. Returns the contact count.
     fn integrate_and_collide(&mut self, window: StepWindow) -> u32 {
         let n = self.x.len();
         let ws = &mut self.ws;
@@ -367,19 +512,34 @@ impl Simulator {
         ws.next_x
             .par_iter_mut()
             .zip(ws.next_v.par_iter_mut())
-            .zip(ws.contacts.par_iter_mut())
+            .zip(ws.contacts.par_iter_mut().zip(self.resting_on.par_iter_mut()))
             .enumerate()
             .with_min_len(CHUNK)
-            .for_each(|(i, ((next_x, next_v), contacts))| {
+            .for_each(|(i, ((next_x, next_v), (contacts, resting)))| {
                 *next_v = v[i] + dv[i];
                 *next_x = x[i] + *next_v * window.h();
-                *contacts = if fixed[i] {
-                    0
+                (*contacts, *resting) = if fixed[i] {
+                    (0, NO_COLLIDER)
                 } else {
-                    resolve_particle(&x[i], next_x, next_v, surfaces[i], colliders, window)
+                    let (count, on) = resolve_particle(&x[i], next_x, next_v, surfaces[i], colliders, window);
+                    (count, on.unwrap_or(NO_COLLIDER))
                 };
             });
         ws.contacts.par_iter().map(|&c| c as u64).sum::<u64>() as u32
+    }
+
+    /// A particle sticks from the next step when it ends this one resting on a
+    /// collider with no velocity relative to its surface, unless its impulse
+    /// just left the friction cone.
+    fn update_sticking(&mut self, window: StepWindow) {
+        let (next_x, next_v, resting_on, slipping) =
+            (&self.ws.next_x, &self.ws.next_v, &self.resting_on, &self.slipping);
+        let colliders = &self.colliders;
+        self.sticking.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(i, sticking)| {
+            *sticking = colliders
+                .get(resting_on[i] as usize)
+                .is_some_and(|c| !slipping[i] && (next_v[i] - c.surface_velocity(&next_x[i], window.t1)).norm() == 0.0);
+        });
     }
 
     /// Max and mean strain |l − l₀| / l₀ over the stretch springs.

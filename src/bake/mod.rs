@@ -1,0 +1,126 @@
+//! Baking: running a scene frame by frame, with a record of each frame (time
+//! per stage, solver iterations, strain, contacts), into a folder of exports.
+
+pub mod output;
+pub mod summary;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use crate::scene::Scene;
+use crate::sim::step::StageTimings;
+use crate::sim::{SimError, Simulator, StepError};
+
+/// What happened during one frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameRecord {
+    /// Frame number (1 is the first simulated frame).
+    pub frame: usize,
+    /// Simulated time at the end of the frame, s.
+    pub time_s: f64,
+    /// Solver steps taken.
+    pub steps: u32,
+    /// Wall time per stage, summed over the frame's steps.
+    pub timings: StageTimings,
+    /// Conjugate-gradient iterations, summed over the steps.
+    pub cg_iterations: u32,
+    /// Steps whose linear solve stopped at the iteration cap.
+    pub unconverged_steps: u32,
+    /// Largest stretch strain at the end of the frame.
+    pub max_strain: f64,
+    /// Mean stretch strain at the end of the frame.
+    pub mean_strain: f64,
+    /// Most particle-collider contacts in one of the frame's steps.
+    pub contacts: u32,
+}
+
+/// Runs a scene one frame at a time.
+pub struct Baker {
+    sim: Simulator,
+    steps_per_frame: u32,
+    step_s: f64,
+    frame: usize,
+}
+
+/// Why a bake stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// The scene could not be turned into a simulation.
+    #[error("cannot start the simulation: {0}")]
+    Start(#[from] SimError),
+    /// A step failed; frames before it are kept.
+    #[error("the simulation stopped at frame {frame}: {source}")]
+    Step {
+        /// The frame that could not be completed.
+        frame: usize,
+        /// Why.
+        source: StepError,
+    },
+    /// Output could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::io::atomic::WriteError),
+}
+
+impl Baker {
+    /// A baker at frame 0 of `scene`.
+    pub fn new(scene: &Scene) -> Result<Self, BakeError> {
+        Ok(Baker {
+            sim: scene.simulator()?,
+            steps_per_frame: scene.steps_per_frame,
+            step_s: scene.step_duration(),
+            frame: 0,
+        })
+    }
+
+    /// The simulation in its current state.
+    pub fn simulator(&self) -> &Simulator {
+        &self.sim
+    }
+
+    /// The last completed frame (0 before any).
+    pub fn frame(&self) -> usize {
+        self.frame
+    }
+
+    /// Simulates the next frame.
+    pub fn advance(&mut self) -> Result<FrameRecord, BakeError> {
+        let frame = self.frame + 1;
+        let mut record = FrameRecord { frame, steps: self.steps_per_frame, ..Default::default() };
+        for _ in 0..self.steps_per_frame {
+            let step = self.sim.step(self.step_s).map_err(|source| BakeError::Step { frame, source })?;
+            record.timings.add(&step.timings);
+            record.cg_iterations += step.solver.iterations;
+            record.unconverged_steps += u32::from(!step.solver.converged);
+            record.contacts = record.contacts.max(step.contacts);
+            record.max_strain = step.max_strain;
+            record.mean_strain = step.mean_strain;
+        }
+        record.time_s = self.sim.time();
+        self.frame = frame;
+        Ok(record)
+    }
+}
+
+/// Runs `scene` for `frames` frames, handing each finished frame to `on_frame`,
+/// and stopping early when `cancel` is set. Returns the records of the frames
+/// done and, if a step failed, the error that stopped it.
+pub fn run(
+    scene: &Scene,
+    frames: usize,
+    cancel: &AtomicBool,
+    mut on_frame: impl FnMut(&Simulator, &FrameRecord) -> Result<(), BakeError>,
+) -> Result<(Vec<FrameRecord>, Option<BakeError>), BakeError> {
+    let mut baker = Baker::new(scene)?;
+    on_frame(baker.simulator(), &FrameRecord::default())?;
+    let mut records = Vec::with_capacity(frames);
+    while baker.frame() < frames && !cancel.load(Ordering::Relaxed) {
+        match baker.advance() {
+            Ok(record) => {
+                on_frame(baker.simulator(), &record)?;
+                records.push(record);
+            }
+            Err(failure @ BakeError::Step { .. }) => return Ok((records, Some(failure))),
+            Err(other) => return Err(other),
+        }
+    }
+    Ok((records, None))
+}

@@ -1,0 +1,176 @@
+//! The bake summary (`summary.json`): speed, solver effort, strain and contacts
+//! over the whole bake and per frame.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::FrameRecord;
+use crate::scene::Scene;
+use crate::sim::step::StageTimings;
+
+/// Everything `summary.json` holds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BakeSummary {
+    /// Scene name.
+    pub scene: String,
+    /// Scene file, if baked from one.
+    pub scene_file: Option<String>,
+    /// True when every requested frame was baked.
+    pub complete: bool,
+    /// Why the bake stopped early, if it did.
+    pub stopped: Option<String>,
+    /// Frames written, including the initial frame 0.
+    pub frames: usize,
+    /// Frames per second.
+    pub fps: f64,
+    /// Solver steps per frame.
+    pub steps_per_frame: u32,
+    /// Solver step, s.
+    pub step_s: f64,
+    /// Worker threads used by the solver.
+    pub threads: usize,
+    /// Cloth particles.
+    pub vertices: usize,
+    /// Springs (stretch and shear).
+    pub springs: usize,
+    /// Bending hinges.
+    pub hinges: usize,
+    /// Median wall time of the simulation per frame (no I/O), ms.
+    pub ms_per_frame_median: f64,
+    /// Mean wall time per frame, ms.
+    pub ms_per_frame_mean: f64,
+    /// Slowest frame, ms.
+    pub ms_per_frame_max: f64,
+    /// Median time per frame of each pipeline stage, ms.
+    pub stage_ms_per_frame_median: BTreeMap<String, f64>,
+    /// Mean conjugate-gradient iterations per step.
+    pub cg_iterations_per_step_mean: f64,
+    /// Steps whose solve hit the iteration cap.
+    pub unconverged_steps: u32,
+    /// Largest stretch strain at any frame end.
+    pub max_strain: f64,
+    /// Frame of the largest strain.
+    pub max_strain_frame: usize,
+    /// Mean strain at the last frame.
+    pub mean_strain_last: f64,
+    /// Most particle-collider contacts in a step.
+    pub contacts_max: u32,
+    /// Per-garment outputs.
+    pub garments: Vec<GarmentOutput>,
+    /// Per simulated frame.
+    pub per_frame: Vec<FrameRow>,
+}
+
+/// A garment's files in the bake folder.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GarmentOutput {
+    /// Garment name (the object name in the OBJ frames).
+    pub name: String,
+    /// Its vertices (the PC2 point count).
+    pub vertices: usize,
+    /// Its point cache file.
+    pub pc2: String,
+}
+
+/// One simulated frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameRow {
+    /// Frame number.
+    pub frame: usize,
+    /// Simulation wall time, ms.
+    pub ms: f64,
+    /// Conjugate-gradient iterations over the frame.
+    pub cg_iterations: u32,
+    /// Largest strain at the frame end.
+    pub max_strain: f64,
+    /// Mean strain at the frame end.
+    pub mean_strain: f64,
+    /// Most contacts in a step.
+    pub contacts: u32,
+}
+
+/// Median of `values` (0 for none).
+pub fn median(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    match sorted.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => sorted[n / 2],
+        n => 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]),
+    }
+}
+
+impl BakeSummary {
+    /// Summarises `records` of a bake of `scene` that asked for `requested`
+    /// frames; `stopped` says why it ended early.
+    pub fn new(scene: &Scene, records: &[FrameRecord], requested: usize, stopped: Option<String>) -> Self {
+        let cloth = scene.cloth();
+        let ms = |r: &FrameRecord| r.timings.total().as_secs_f64() * 1e3;
+        let frame_ms: Vec<f64> = records.iter().map(ms).collect();
+        let mut stage_ms = BTreeMap::new();
+        for (k, (name, _)) in StageTimings::default().stages().iter().enumerate() {
+            let per_frame: Vec<f64> = records.iter().map(|r| r.timings.stages()[k].1.as_secs_f64() * 1e3).collect();
+            stage_ms.insert((*name).to_owned(), median(&per_frame));
+        }
+        let steps: u32 = records.iter().map(|r| r.steps).sum();
+        let worst = records.iter().max_by(|a, b| a.max_strain.total_cmp(&b.max_strain));
+        BakeSummary {
+            scene: scene.name.clone(),
+            scene_file: scene.source.as_ref().map(|p| p.display().to_string()),
+            complete: stopped.is_none() && records.len() == requested,
+            stopped,
+            frames: records.len() + 1,
+            fps: scene.fps,
+            steps_per_frame: scene.steps_per_frame,
+            step_s: scene.step_duration(),
+            threads: rayon::current_num_threads(),
+            vertices: cloth.vertex_count(),
+            springs: cloth.spring_count(),
+            hinges: cloth.hinge_vertices.len(),
+            ms_per_frame_median: median(&frame_ms),
+            ms_per_frame_mean: frame_ms.iter().sum::<f64>() / frame_ms.len().max(1) as f64,
+            ms_per_frame_max: frame_ms.iter().copied().fold(0.0, f64::max),
+            stage_ms_per_frame_median: stage_ms,
+            cg_iterations_per_step_mean: records.iter().map(|r| r.cg_iterations as f64).sum::<f64>()
+                / steps.max(1) as f64,
+            unconverged_steps: records.iter().map(|r| r.unconverged_steps).sum(),
+            max_strain: worst.map_or(0.0, |r| r.max_strain),
+            max_strain_frame: worst.map_or(0, |r| r.frame),
+            mean_strain_last: records.last().map_or(0.0, |r| r.mean_strain),
+            contacts_max: records.iter().map(|r| r.contacts).max().unwrap_or(0),
+            garments: scene
+                .garments
+                .iter()
+                .map(|g| GarmentOutput {
+                    name: g.name.clone(),
+                    vertices: g.mesh.vertex_count(),
+                    pc2: format!("{}.pc2", g.name),
+                })
+                .collect(),
+            per_frame: records
+                .iter()
+                .map(|r| FrameRow {
+                    frame: r.frame,
+                    ms: ms(r),
+                    cg_iterations: r.cg_iterations,
+                    max_strain: r.max_strain,
+                    mean_strain: r.mean_strain,
+                    contacts: r.contacts,
+                })
+                .collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert_eq!(median(&[]), 0.0);
+    }
+}

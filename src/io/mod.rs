@@ -1,0 +1,5 @@
+//! Files in and out: OBJ garments and frames, PC2 point caches, atomic writes.
+
+pub mod atomic;
+pub mod obj;
+pub mod pc2;

@@ -1,0 +1,262 @@
+//! The scene file format (TOML), as written by people and saved by the editor.
+//! Every table refuses unknown keys, so a typo is an error with its line, not a
+//! silently ignored setting. Units are in the key names.
+//!
+//! ```toml
+//! description = "A cotton square dropped on a sphere."
+//! [time]
+//! fps = 30.0
+//! duration_s = 2.0
+//! [solver]
+//! steps_per_frame = 2
+//!
+//! [[garment]]
+//! name = "cloth"
+//! preset = "cotton"                       # built-in name, or a path to a .toml preset
+//! mesh = { grid = { size_m = 1.0, resolution = 64 } }
+//! translation_m = [0.0, 1.0, 0.0]
+//! [[garment.pin]]
+//! vertices = [0, 63]                      # and/or region = { min_m = [..], max_m = [..] }
+//!
+//! [[collider]]
+//! name = "ball"
+//! shape = { sphere = { radius_m = 0.3 } }
+//! position_m = [0.0, 0.5, 0.0]
+//! motion = { angular_velocity_deg_per_s = [0.0, 360.0, 0.0], start_s = 1.0 }
+//! ```
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use crate::sim::motion::MotionSpec;
+
+/// A whole scene file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// What the scene is for, in a sentence.
+    #[serde(default)]
+    pub description: String,
+    /// Frame rate and length.
+    pub time: TimeSettings,
+    /// Linear solver and stepping.
+    #[serde(default)]
+    pub solver: SolverSettings,
+    /// Scene-wide collision settings.
+    #[serde(default)]
+    pub collision: CollisionSettings,
+    /// The cloths.
+    #[serde(default, rename = "garment")]
+    pub garments: Vec<GarmentSpec>,
+    /// The obstacles.
+    #[serde(default, rename = "collider")]
+    pub colliders: Vec<ColliderSpec>,
+}
+
+/// Frame rate and frame range. Frame 0 is the initial state; frames
+/// `1..=round(duration × fps)` are simulated.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSettings {
+    /// Frames per second of the output.
+    #[serde(default = "default_fps")]
+    pub fps: f64,
+    /// Length of the animation, s.
+    pub duration_s: f64,
+}
+
+fn default_fps() -> f64 {
+    30.0
+}
+
+/// How each frame is stepped and solved.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSettings {
+    /// Solver steps per frame; when absent, the fewest steps that respect every
+    /// garment's `time_step_s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steps_per_frame: Option<u32>,
+    /// Relative residual at which the conjugate-gradient solve stops.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Iteration cap of the conjugate-gradient solve.
+    #[serde(default = "default_max_iterations")]
+    pub max_iterations: u32,
+}
+
+fn default_tolerance() -> f64 {
+    1e-3
+}
+
+fn default_max_iterations() -> u32 {
+    500
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        SolverSettings {
+            steps_per_frame: None,
+            tolerance: default_tolerance(),
+            max_iterations: default_max_iterations(),
+        }
+    }
+}
+
+/// Scene-wide collision settings; each overrides the garments' fabric values.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CollisionSettings {
+    /// Distance the cloth keeps from colliders, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thickness_m: Option<f64>,
+    /// Friction coefficient between cloth and colliders.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
+}
+
+/// One cloth.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GarmentSpec {
+    /// Name, used for export files.
+    pub name: String,
+    /// Fabric preset: built-in name or path to a preset file.
+    pub preset: String,
+    /// Values replacing the preset's `[fabric]` entries.
+    #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
+    pub fabric: toml::Table,
+    /// Where the mesh comes from.
+    pub mesh: MeshSpec,
+    /// Translation applied after rotation and scale, m.
+    #[serde(default)]
+    pub translation_m: [f64; 3],
+    /// Rotation about X, then Y, then Z (fixed axes), degrees.
+    #[serde(default)]
+    pub rotation_deg: [f64; 3],
+    /// Uniform scale applied first (e.g. 0.01 for a mesh in centimetres).
+    #[serde(default = "default_scale")]
+    pub scale: f64,
+    /// Held vertices.
+    #[serde(default, rename = "pin", skip_serializing_if = "Vec::is_empty")]
+    pub pins: Vec<PinSpec>,
+}
+
+fn default_scale() -> f64 {
+    1.0
+}
+
+/// A garment mesh: a file or a generated shape.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum MeshSpec {
+    /// An OBJ file, relative to the scene file.
+    Obj(PathBuf),
+    /// A square grid cloth in the XZ plane (see [`crate::mesh::generate::grid`]).
+    Grid {
+        /// Side length, m.
+        size_m: f64,
+        /// Vertices per side.
+        resolution: usize,
+    },
+    /// An open tube along X (see [`crate::mesh::generate::tube`]).
+    Tube {
+        /// Radius, m.
+        radius_m: f64,
+        /// Length, m.
+        length_m: f64,
+        /// Vertices around each ring.
+        around: usize,
+        /// Number of rings.
+        along: usize,
+    },
+}
+
+/// A group of pinned vertices, optionally moving together.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PinSpec {
+    /// Vertex indices (0-based, in the mesh's vertex order after welding).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub vertices: Vec<u32>,
+    /// Every vertex inside this box of the mesh's own coordinates (before the
+    /// garment transform).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<Region>,
+    /// Motion of the pinned vertices; the pivot defaults to their centroid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionSpec>,
+}
+
+/// An axis-aligned box, m.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    /// Lower corner, m.
+    pub min_m: [f64; 3],
+    /// Upper corner, m.
+    pub max_m: [f64; 3],
+}
+
+/// One obstacle.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ColliderSpec {
+    /// Name, for reports.
+    pub name: String,
+    /// The solid.
+    pub shape: ShapeSpec,
+    /// Centre of the shape at time 0, m (for a plane: a point on it).
+    #[serde(default)]
+    pub position_m: [f64; 3],
+    /// Rotation about X, then Y, then Z (fixed axes), degrees.
+    #[serde(default)]
+    pub rotation_deg: [f64; 3],
+    /// Friction coefficient overriding the fabric's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
+    /// Kinematic motion; the pivot defaults to `position_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionSpec>,
+}
+
+/// Collider shapes, each centred on the collider's position with its axis
+/// along local Y.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeSpec {
+    /// The half-space below the local XZ plane (a ground when unrotated).
+    Plane,
+    /// A ball.
+    Sphere {
+        /// Radius, m.
+        radius_m: f64,
+    },
+    /// A box.
+    Box {
+        /// Full size along X, Y, Z, m.
+        size_m: [f64; 3],
+    },
+    /// A capped cylinder.
+    Cylinder {
+        /// Radius, m.
+        radius_m: f64,
+        /// Height, m.
+        height_m: f64,
+    },
+    /// A cone, apex up.
+    Cone {
+        /// Base radius, m.
+        radius_m: f64,
+        /// Height, m.
+        height_m: f64,
+    },
+    /// An upright prism on an equilateral triangle.
+    Prism {
+        /// Side of the triangle, m.
+        side_m: f64,
+        /// Height, m.
+        height_m: f64,
+    },
+}

@@ -1,0 +1,452 @@
+//! Scenes: read a scene file, resolve its presets, meshes, pins and colliders,
+//! check every value, and build the simulator.
+
+pub mod file;
+pub mod preset;
+pub mod summary;
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry3, Similarity3, Translation3, UnitQuaternion, Vector3};
+
+use self::file::{ColliderSpec, GarmentSpec, MeshSpec, PinSpec, SceneFile, ShapeSpec};
+use self::preset::{Appearance, Preset, PresetError};
+use crate::io::obj::{ObjError, read_obj};
+use crate::mesh::validate::MeshReport;
+use crate::mesh::{TriMesh, generate};
+use crate::sim::cloth::Cloth;
+use crate::sim::colliders::{Collider, Shape};
+use crate::sim::fabric::Fabric;
+use crate::sim::motion::RigidMotion;
+use crate::sim::pcg::PcgSettings;
+use crate::sim::{Pin, SimError, Simulator};
+
+/// Largest grid or tube resolution a scene may ask for (vertices per side).
+const MAX_RESOLUTION: usize = 2048;
+
+/// A scene ready to simulate: every value checked, every file loaded, every
+/// mesh in world space.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Name (the file stem).
+    pub name: String,
+    /// Where it was read from, if from a file.
+    pub source: Option<PathBuf>,
+    /// The file as read (for saving it again).
+    pub file: SceneFile,
+    /// Output frames per second.
+    pub fps: f64,
+    /// Frames simulated after the initial frame 0.
+    pub frame_count: usize,
+    /// Solver steps per frame.
+    pub steps_per_frame: u32,
+    /// Linear solver settings.
+    pub solver: PcgSettings,
+    /// The cloths.
+    pub garments: Vec<Garment>,
+    /// The obstacles.
+    pub colliders: Vec<Collider>,
+}
+
+/// One cloth of a scene.
+#[derive(Clone, Debug)]
+pub struct Garment {
+    /// Name (used for export files).
+    pub name: String,
+    /// Preset it was built from, with provenance and appearance.
+    pub preset: Preset,
+    /// Effective fabric (preset, overrides and scene collision settings).
+    pub fabric: Fabric,
+    /// World-space rest mesh.
+    pub mesh: TriMesh,
+    /// What mesh validation found and repaired.
+    pub report: MeshReport,
+    /// Non-fatal loading problems.
+    pub warnings: Vec<String>,
+    /// Pins, by vertex index within this garment.
+    pub pins: Vec<Pin>,
+    /// Where the mesh came from, for reports.
+    pub origin: String,
+}
+
+impl Garment {
+    /// Render and export appearance.
+    pub fn appearance(&self) -> &Appearance {
+        &self.preset.appearance
+    }
+}
+
+/// Why a scene could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("cannot read scene file {path}: {source}")]
+    Read {
+        /// File path.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The TOML is malformed or has unknown or missing keys.
+    #[error("scene {origin}: {message}")]
+    Parse {
+        /// File path.
+        origin: String,
+        /// The parser's message, with line and column.
+        message: String,
+    },
+    /// A garment's preset is unusable.
+    #[error("scene {origin}: garment '{garment}': {source}")]
+    Preset {
+        /// File path.
+        origin: String,
+        /// Garment name.
+        garment: String,
+        /// The preset problem.
+        source: PresetError,
+    },
+    /// A garment's OBJ is unusable.
+    #[error("scene {origin}: garment '{garment}': {source}")]
+    Obj {
+        /// File path.
+        origin: String,
+        /// Garment name.
+        garment: String,
+        /// The OBJ problem.
+        source: ObjError,
+    },
+    /// A value is out of range or inconsistent.
+    #[error("scene {origin}: {what}: {problem}")]
+    Invalid {
+        /// File path.
+        origin: String,
+        /// Which setting.
+        what: String,
+        /// What is wrong, with the accepted range.
+        problem: String,
+    },
+}
+
+impl Scene {
+    /// Reads and resolves a scene file; relative paths in it are relative to
+    /// its folder.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Scene::load_edited(path, |_| {})
+    }
+
+    /// Reads a scene file, lets `edit` change it, then resolves it (benchmarks
+    /// and tests vary one setting of a standard scene this way).
+    pub fn load_edited(path: &Path, edit: impl FnOnce(&mut SceneFile)) -> Result<Scene, SceneError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| SceneError::Read { path: path.to_owned(), source })?;
+        let origin = path.display().to_string();
+        let mut file = parse_file(&text, &origin)?;
+        edit(&mut file);
+        let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let mut scene =
+            Resolver { base_dir: path.parent().unwrap_or(Path::new("")), origin: &origin }.scene(file, &name)?;
+        scene.source = Some(path.to_owned());
+        Ok(scene)
+    }
+
+    /// Parses and resolves scene text; `origin` names it in errors.
+    pub fn parse(text: &str, name: &str, base_dir: &Path, origin: &str) -> Result<Scene, SceneError> {
+        Resolver { base_dir, origin }.scene(parse_file(text, origin)?, name)
+    }
+
+    /// Duration of one frame, s.
+    pub fn frame_duration(&self) -> f64 {
+        1.0 / self.fps
+    }
+
+    /// Duration of one solver step, s.
+    pub fn step_duration(&self) -> f64 {
+        self.frame_duration() / self.steps_per_frame as f64
+    }
+
+    /// Builds the cloth of every garment, in order (particle indices follow).
+    pub fn cloth(&self) -> Cloth {
+        Cloth::new(self.garments.iter().map(|g| (&g.mesh, g.fabric.clone())))
+    }
+
+    /// A simulator at the scene's initial state.
+    pub fn simulator(&self) -> Result<Simulator, SimError> {
+        let mut pins = Vec::new();
+        let mut offset = 0;
+        for garment in &self.garments {
+            pins.extend(garment.pins.iter().map(|p| Pin { vertex: p.vertex + offset, motion: p.motion }));
+            offset += garment.mesh.vertex_count() as u32;
+        }
+        Simulator::new(self.cloth(), pins, self.colliders.clone(), self.solver)
+    }
+}
+
+fn parse_file(text: &str, origin: &str) -> Result<SceneFile, SceneError> {
+    toml::from_str(text).map_err(|e| SceneError::Parse { origin: origin.to_owned(), message: e.to_string() })
+}
+
+/// Resolves a parsed file against its folder, naming `origin` in errors.
+struct Resolver<'a> {
+    base_dir: &'a Path,
+    origin: &'a str,
+}
+
+impl Resolver<'_> {
+    fn invalid(&self, what: impl Into<String>, problem: impl Into<String>) -> SceneError {
+        SceneError::Invalid { origin: self.origin.to_owned(), what: what.into(), problem: problem.into() }
+    }
+
+    /// Checks that `value` is finite and within `range`, or says so.
+    fn check(&self, what: &str, value: f64, ok: impl Fn(f64) -> bool, expected: &str) -> Result<(), SceneError> {
+        if value.is_finite() && ok(value) {
+            Ok(())
+        } else {
+            Err(self.invalid(what, format!("{value} is out of range: {expected}")))
+        }
+    }
+
+    fn scene(&self, file: SceneFile, name: &str) -> Result<Scene, SceneError> {
+        self.check("time.fps", file.time.fps, |v| v > 0.0 && v <= 1000.0, "0 < fps ≤ 1000")?;
+        self.check("time.duration_s", file.time.duration_s, |v| v > 0.0 && v <= 36_000.0, "0 < duration ≤ 36000 s")?;
+        let solver = &file.solver;
+        self.check("solver.tolerance", solver.tolerance, |v| v > 0.0 && v < 1.0, "0 < tolerance < 1")?;
+        if solver.max_iterations == 0 {
+            return Err(self.invalid("solver.max_iterations", "must be at least 1"));
+        }
+        if let Some(steps) = solver.steps_per_frame {
+            if !(1..=10_000).contains(&steps) {
+                return Err(
+                    self.invalid("solver.steps_per_frame", format!("{steps} is out of range: 1 ≤ steps ≤ 10000"))
+                );
+            }
+        }
+        if file.garments.is_empty() {
+            return Err(self.invalid("garment", "the scene has no [[garment]]"));
+        }
+        let garments = file.garments.iter().map(|g| self.garment(g, &file)).collect::<Result<Vec<_>, _>>()?;
+        for (i, g) in garments.iter().enumerate() {
+            if garments[..i].iter().any(|other| other.name == g.name) {
+                return Err(self.invalid(format!("garment '{}'", g.name), "two garments have this name"));
+            }
+        }
+        let colliders = file.colliders.iter().map(|c| self.collider(c)).collect::<Result<Vec<_>, _>>()?;
+        let fps = file.time.fps;
+        let steps_per_frame = solver.steps_per_frame.unwrap_or_else(|| {
+            let finest = garments.iter().map(|g| g.fabric.time_step_s).fold(f64::INFINITY, f64::min);
+            ((1.0 / fps) / finest - 1e-9).ceil().max(1.0) as u32
+        });
+        Ok(Scene {
+            name: name.to_owned(),
+            source: None,
+            fps,
+            frame_count: (file.time.duration_s * fps).round().max(1.0) as usize,
+            steps_per_frame,
+            solver: PcgSettings { tolerance: solver.tolerance, max_iterations: solver.max_iterations },
+            garments,
+            colliders,
+            file,
+        })
+    }
+
+    fn garment(&self, spec: &GarmentSpec, file: &SceneFile) -> Result<Garment, SceneError> {
+        let what = format!("garment '{}'", spec.name);
+        let preset_error =
+            |source| SceneError::Preset { origin: self.origin.to_owned(), garment: spec.name.clone(), source };
+        let mut overrides = spec.fabric.clone();
+        if let Some(t) = file.collision.thickness_m {
+            overrides.insert("thickness_m".into(), toml::Value::Float(t));
+        }
+        if let Some(mu) = file.collision.friction {
+            overrides.insert("friction".into(), toml::Value::Float(mu));
+        }
+        let preset = Preset::resolve(&spec.preset, self.base_dir, &overrides).map_err(preset_error)?;
+
+        let (mut mesh, report, warnings, origin) = self.mesh(&spec.mesh, &what, &spec.name)?;
+        let pinned = spec
+            .pins
+            .iter()
+            .enumerate()
+            .map(|(k, pin)| Ok((pin, self.pin_vertices(pin, &mesh, &format!("{what}: pin {}", k + 1))?)))
+            .collect::<Result<Vec<_>, SceneError>>()?;
+
+        self.check(&format!("{what}: scale"), spec.scale, |s| s > 0.0, "a positive factor")?;
+        for v in spec.translation_m.iter().chain(&spec.rotation_deg) {
+            self.check(&format!("{what}: transform"), *v, |_| true, "finite numbers")?;
+        }
+        let world_from_model = Similarity3::from_parts(
+            Translation3::from(Vector3::from(spec.translation_m)),
+            rotation(spec.rotation_deg),
+            spec.scale,
+        );
+        mesh.transform(&world_from_model);
+
+        let mut pins = Vec::new();
+        for (pin, vertices) in pinned {
+            let centroid =
+                vertices.iter().map(|&v| mesh.positions[v as usize]).sum::<Vector3<f64>>() / vertices.len() as f64;
+            let motion = pin.motion.as_ref().map(|m| RigidMotion::from_spec(m, centroid));
+            pins.extend(vertices.into_iter().map(|vertex| Pin { vertex, motion }));
+        }
+        pins.sort_by_key(|p| p.vertex);
+        pins.dedup_by_key(|p| p.vertex);
+
+        Ok(Garment {
+            name: spec.name.clone(),
+            fabric: preset.fabric.clone(),
+            preset,
+            mesh,
+            report,
+            warnings,
+            pins,
+            origin,
+        })
+    }
+
+    fn mesh(
+        &self,
+        spec: &MeshSpec,
+        what: &str,
+        garment: &str,
+    ) -> Result<(TriMesh, MeshReport, Vec<String>, String), SceneError> {
+        let resolution = |n: usize, name: &str| {
+            if (2..=MAX_RESOLUTION).contains(&n) {
+                Ok(())
+            } else {
+                Err(self
+                    .invalid(format!("{what}: {name}"), format!("{n} is out of range: 2 ≤ value ≤ {MAX_RESOLUTION}")))
+            }
+        };
+        let positive =
+            |v: f64, name: &str| self.check(&format!("{what}: {name}"), v, |v| v > 0.0, "a positive length in m");
+        match spec {
+            MeshSpec::Obj(path) => {
+                let path = self.base_dir.join(path);
+                let obj = read_obj(&path).map_err(|source| SceneError::Obj {
+                    origin: self.origin.to_owned(),
+                    garment: garment.to_owned(),
+                    source,
+                })?;
+                Ok((obj.mesh, obj.report, obj.warnings, path.display().to_string()))
+            }
+            MeshSpec::Grid { size_m, resolution: n } => {
+                positive(*size_m, "size_m")?;
+                resolution(*n, "resolution")?;
+                Ok((
+                    generate::grid(*size_m, *n),
+                    MeshReport::default(),
+                    Vec::new(),
+                    format!("grid {size_m} m, {n} × {n} vertices"),
+                ))
+            }
+            MeshSpec::Tube { radius_m, length_m, around, along } => {
+                positive(*radius_m, "radius_m")?;
+                positive(*length_m, "length_m")?;
+                resolution(*along, "along")?;
+                if !(3..=MAX_RESOLUTION).contains(around) {
+                    return Err(self.invalid(
+                        format!("{what}: around"),
+                        format!("{around} is out of range: 3 ≤ value ≤ {MAX_RESOLUTION}"),
+                    ));
+                }
+                let origin = format!("tube r = {radius_m} m, {length_m} m long, {around} × {along} vertices");
+                Ok((generate::tube(*radius_m, *length_m, *around, *along), MeshReport::default(), Vec::new(), origin))
+            }
+        }
+    }
+
+    /// The vertices a pin group selects, in the mesh's own coordinates.
+    fn pin_vertices(&self, pin: &PinSpec, mesh: &TriMesh, what: &str) -> Result<Vec<u32>, SceneError> {
+        let count = mesh.vertex_count();
+        if let Some(&bad) = pin.vertices.iter().find(|&&v| v as usize >= count) {
+            return Err(self.invalid(
+                what,
+                format!("vertex {bad} does not exist: the mesh has {count} vertices (0..{})", count - 1),
+            ));
+        }
+        let mut vertices = pin.vertices.clone();
+        if let Some(region) = &pin.region {
+            let (lo, hi) = (Vector3::from(region.min_m), Vector3::from(region.max_m));
+            let inside = |p: &Vector3<f64>| (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]);
+            vertices.extend((0..count as u32).filter(|&v| inside(&mesh.positions[v as usize])));
+        }
+        if vertices.is_empty() {
+            return Err(self.invalid(what, "selects no vertex (give `vertices` or a `region` that contains some)"));
+        }
+        if let Some(motion) = &pin.motion {
+            self.motion(motion, what)?;
+        }
+        Ok(vertices)
+    }
+
+    fn motion(&self, motion: &crate::sim::motion::MotionSpec, what: &str) -> Result<(), SceneError> {
+        let values = motion
+            .velocity_m_per_s
+            .iter()
+            .chain(&motion.angular_velocity_deg_per_s)
+            .chain(motion.pivot_m.iter().flatten());
+        for &v in values.chain([motion.start_s].iter()) {
+            self.check(&format!("{what}: motion"), v, |_| true, "finite numbers")?;
+        }
+        if motion.end_s.is_some_and(|end| !(end >= motion.start_s)) {
+            return Err(self.invalid(format!("{what}: motion"), "end_s must not be before start_s"));
+        }
+        Ok(())
+    }
+
+    fn collider(&self, spec: &ColliderSpec) -> Result<Collider, SceneError> {
+        let what = format!("collider '{}'", spec.name);
+        let length =
+            |v: f64, name: &str| self.check(&format!("{what}: {name}"), v, |v| v > 0.0, "a positive length in m");
+        let shape = match &spec.shape {
+            ShapeSpec::Plane => Shape::Plane,
+            ShapeSpec::Sphere { radius_m } => {
+                length(*radius_m, "radius_m")?;
+                Shape::Sphere { radius: *radius_m }
+            }
+            ShapeSpec::Box { size_m } => {
+                for s in size_m {
+                    length(*s, "size_m")?;
+                }
+                Shape::Box { half_extents: Vector3::from(*size_m) / 2.0 }
+            }
+            ShapeSpec::Cylinder { radius_m, height_m } => {
+                length(*radius_m, "radius_m")?;
+                length(*height_m, "height_m")?;
+                Shape::Cylinder { radius: *radius_m, half_height: height_m / 2.0 }
+            }
+            ShapeSpec::Cone { radius_m, height_m } => {
+                length(*radius_m, "radius_m")?;
+                length(*height_m, "height_m")?;
+                Shape::Cone { radius: *radius_m, half_height: height_m / 2.0 }
+            }
+            ShapeSpec::Prism { side_m, height_m } => {
+                length(*side_m, "side_m")?;
+                length(*height_m, "height_m")?;
+                Shape::Prism { side: *side_m, half_height: height_m / 2.0 }
+            }
+        };
+        for v in spec.position_m.iter().chain(&spec.rotation_deg) {
+            self.check(&format!("{what}: pose"), *v, |_| true, "finite numbers")?;
+        }
+        if let Some(mu) = spec.friction {
+            self.check(&format!("{what}: friction"), mu, |m| (0.0..=10.0).contains(&m), "0 ≤ friction ≤ 10")?;
+        }
+        if let Some(motion) = &spec.motion {
+            self.motion(motion, &what)?;
+        }
+        let position = Vector3::from(spec.position_m);
+        Ok(Collider {
+            name: spec.name.clone(),
+            shape,
+            rest_pose: Isometry3::from_parts(Translation3::from(position), rotation(spec.rotation_deg)),
+            motion: spec.motion.as_ref().map(|m| RigidMotion::from_spec(m, position)),
+            friction: spec.friction,
+        })
+    }
+}
+
+/// Rotation about X, then Y, then Z (fixed axes), from degrees.
+fn rotation(degrees: [f64; 3]) -> UnitQuaternion<f64> {
+    let [x, y, z] = degrees.map(f64::to_radians);
+    UnitQuaternion::from_euler_angles(x, y, z)
+}

@@ -1,0 +1,88 @@
+//! A readable account of a resolved scene: what `drape check` prints.
+
+use std::fmt::Write;
+
+use super::Scene;
+use crate::sim::cloth::SpringKind;
+use crate::sim::colliders::Shape;
+
+/// Describes `scene`: timing, each garment (mesh, elements, mass, pins, mesh
+/// warnings) and each collider.
+pub fn summary(scene: &Scene) -> String {
+    let mut out = String::new();
+    let source = scene.source.as_ref().map(|p| format!(" ({})", p.display())).unwrap_or_default();
+    let _ = writeln!(out, "scene {}{source}", scene.name);
+    if !scene.file.description.is_empty() {
+        let _ = writeln!(out, "  {}", scene.file.description);
+    }
+    let _ = writeln!(
+        out,
+        "  time: {} fps, {} frames ({:.2} s), {} steps per frame (step {:.2} ms)",
+        scene.fps,
+        scene.frame_count,
+        scene.frame_count as f64 / scene.fps,
+        scene.steps_per_frame,
+        scene.step_duration() * 1e3
+    );
+    let _ = writeln!(
+        out,
+        "  solver: conjugate gradients to relative residual {:e}, at most {} iterations",
+        scene.solver.tolerance, scene.solver.max_iterations
+    );
+    let cloth = scene.cloth();
+    for (garment, range) in scene.garments.iter().zip(&cloth.garments) {
+        let f = &garment.fabric;
+        let stretch = range.springs.clone().filter(|&s| cloth.spring_kind[s] == SpringKind::Stretch).count();
+        let mass: f64 = cloth.mass[range.vertices.clone()].iter().sum();
+        let _ = writeln!(out, "garment '{}': {}", garment.name, garment.origin);
+        let _ = writeln!(out, "  preset {}: {}", garment.preset.name, garment.preset.about.feel);
+        let _ = writeln!(
+            out,
+            "  {} vertices, {} triangles, {} stretch + {} shear springs, {} bending hinges",
+            garment.mesh.vertex_count(),
+            garment.mesh.triangles.len(),
+            stretch,
+            range.springs.len() - stretch,
+            range.hinges.len()
+        );
+        let _ = writeln!(
+            out,
+            "  area {:.3} m², mass {:.4} kg, thickness {:.1} mm, friction {}",
+            garment.mesh.area(),
+            mass,
+            f.thickness_m * 1e3,
+            f.friction
+        );
+        let moving = garment.pins.iter().filter(|p| p.motion.is_some()).count();
+        let _ = writeln!(out, "  pins: {} vertices ({} moving)", garment.pins.len(), moving);
+        let _ = writeln!(out, "  mesh: {}", garment.report);
+        for warning in garment.report.warnings().iter().chain(&garment.warnings) {
+            let _ = writeln!(out, "  warning: {warning}");
+        }
+    }
+    for c in &scene.colliders {
+        let p = c.rest_pose.translation.vector;
+        let motion = if c.motion.is_some() { "kinematic" } else { "static" };
+        let _ = writeln!(
+            out,
+            "collider '{}': {} at ({:.3}, {:.3}, {:.3}), {motion}",
+            c.name,
+            describe(&c.shape),
+            p.x,
+            p.y,
+            p.z
+        );
+    }
+    out
+}
+
+fn describe(shape: &Shape) -> String {
+    match shape {
+        Shape::Plane => "plane".into(),
+        Shape::Sphere { radius } => format!("sphere r = {radius} m"),
+        Shape::Box { half_extents: h } => format!("box {} × {} × {} m", 2.0 * h.x, 2.0 * h.y, 2.0 * h.z),
+        Shape::Cylinder { radius, half_height } => format!("cylinder r = {radius} m, h = {} m", 2.0 * half_height),
+        Shape::Cone { radius, half_height } => format!("cone r = {radius} m, h = {} m", 2.0 * half_height),
+        Shape::Prism { side, half_height } => format!("triangular prism side {side} m, h = {} m", 2.0 * half_height),
+    }
+}
