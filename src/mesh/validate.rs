@@ -86,6 +86,7 @@ impl MeshReport {
                 lines.push(format!("{count} {what}"));
             }
         };
+        add(self.duplicate_vertices, "duplicate vertex(es) at the position of another, welded into one");
         add(self.degenerate_triangles, "degenerate (zero-area) triangle(s) removed");
         add(self.isolated_vertices, "isolated vertex(es) used by no triangle removed");
         add(self.non_manifold_edges, "non-manifold edge(s) (shared by 3+ triangles) kept without bending");

@@ -24,7 +24,7 @@ use std::ops::Range;
 use nalgebra::Vector3;
 
 use super::fabric::Fabric;
-use super::forces::hinge_weights;
+use super::forces::{SpringStiffness, hinge_weights};
 use crate::mesh::TriMesh;
 use crate::mesh::topology::Topology;
 
@@ -113,11 +113,18 @@ impl Cloth {
     }
 
     /// Stiffness (N/m) and damping (N·s/m) of spring `s` under its garment's fabric.
-    pub fn spring_coefficients(&self, s: usize, fabric: &Fabric) -> (f64, f64) {
+    pub fn spring_coefficients(&self, s: usize, fabric: &Fabric) -> (SpringStiffness, f64) {
         let ratio = self.spring_area_ratio[s];
         match self.spring_kind[s] {
-            SpringKind::Stretch => (fabric.stretch_stiffness_n_per_m * ratio, fabric.stretch_damping_n_s_per_m * ratio),
-            SpringKind::Shear => (fabric.shear_stiffness_n_per_m * ratio, fabric.shear_damping_n_s_per_m * ratio),
+            SpringKind::Stretch => {
+                let k = fabric.stretch_stiffness_n_per_m * ratio;
+                let stiffness = SpringStiffness { tension: k, compression: k * fabric.compression_ratio };
+                (stiffness, fabric.stretch_damping_n_s_per_m * ratio)
+            }
+            SpringKind::Shear => (
+                SpringStiffness::symmetric(fabric.shear_stiffness_n_per_m * ratio),
+                fabric.shear_damping_n_s_per_m * ratio,
+            ),
         }
     }
 

@@ -17,15 +17,16 @@
 //! and ends no closer than the thickness to the surface.
 //!
 //! A particle that ends a step resting on a collider starts the next step
-//! constrained to it ([`SurfaceContact`]), so the rest of the cloth feels the
-//! support within the same implicit solve. A sliding particle keeps its normal
-//! velocity equal to the surface's and the constraint's normal impulse drives
-//! its Coulomb friction. A particle that ended the step stuck moves with the
-//! surface in all three directions (static friction inside the solve, which
-//! keeps stiff cloth stable where a correction after the solve would not), and
-//! slips again once its constraint impulse leaves the friction cone.
+//! constrained to it ([`SurfaceContact`]): its velocity along the normal is
+//! prescribed, so the rest of the cloth feels the support within the same
+//! implicit solve. Its friction is part of that solve too
+//! ([`SurfaceContact::friction_damping`]): a tangential damping whose
+//! coefficient μN/|v_T| makes the friction force μN while the particle slides
+//! and holds it (static friction) as it stops. Friction applied as a velocity
+//! correction after the solve would fight the stiff springs around the particle
+//! and blow up.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::colliders::Collider;
 use super::pcg::Constraint;
@@ -147,20 +148,17 @@ pub struct SurfaceContact {
     /// Prescribed velocity along the normal relative to the surface, m/s
     /// (0 for a resting particle, negative for one arriving during the step).
     pub normal_speed: f64,
-    /// True when static friction holds the particle: it moves with the surface.
-    pub sticking: bool,
 }
+
+/// Below this sliding speed (m/s) friction damping stops growing: the particle
+/// is held by static friction, creeping at most this fast under a load within
+/// the friction cone.
+pub const STICKING_SPEED: f64 = 1e-3;
 
 impl SurfaceContact {
     /// The contact of a particle at `position` resting on collider `index` at
-    /// the start of `window`, stuck to it or sliding.
-    pub fn resting(
-        position: &Vector3<f64>,
-        colliders: &[Collider],
-        index: u32,
-        sticking: bool,
-        window: StepWindow,
-    ) -> Self {
+    /// the start of `window`.
+    pub fn resting(position: &Vector3<f64>, colliders: &[Collider], index: u32, window: StepWindow) -> Self {
         let collider = &colliders[index as usize];
         let pose = collider.world_from_local(window.t0);
         let local = pose.inverse_transform_point(&(*position).into()).coords;
@@ -169,7 +167,6 @@ impl SurfaceContact {
             normal: pose.rotation * collider.shape.signed_distance(&local).normal,
             surface_velocity: collider.surface_velocity(position, window.t0),
             normal_speed: 0.0,
-            sticking,
         }
     }
 
@@ -200,40 +197,31 @@ impl SurfaceContact {
                 normal: pose_touch.rotation * local_normal,
                 surface_velocity: collider.surface_velocity(start, window.t0),
                 normal_speed: t * approach / window.h(),
-                sticking: false,
             })
         })
     }
 
     /// The constraint this contact puts on the solve.
     pub fn constraint(&self) -> Constraint {
-        if self.sticking { Constraint::Fixed } else { Constraint::Normal(self.normal) }
+        Constraint::Normal(self.normal)
     }
 
     /// The velocity change `dv` of a particle with velocity `v`, with its
-    /// prescribed part replaced: all of it for a sticking particle (it moves
-    /// with the surface), the normal part otherwise.
+    /// normal part replaced by the prescribed one.
     pub fn prescribe(&self, v: &Vector3<f64>, dv: &Vector3<f64>) -> Vector3<f64> {
         let target = self.normal.dot(&self.surface_velocity) + self.normal_speed;
-        if self.sticking {
-            return self.surface_velocity + self.normal * self.normal_speed - v;
-        }
         dv - self.normal * self.normal.dot(dv) + self.normal * (target - self.normal.dot(v))
     }
 
-    /// True when a sticking contact's constraint impulse (N·s) lies outside the
-    /// Coulomb cone of coefficient `mu`: the particle must slip.
-    pub fn slips(&self, impulse: &Vector3<f64>, mu: f64) -> bool {
-        let normal = self.normal.dot(impulse);
-        (impulse - self.normal * normal).norm() > mu * normal
-    }
-
-    /// Velocity after the solve with the constraint's normal impulse per mass
-    /// `normal_change` (m/s) turned into Coulomb friction.
-    pub fn with_friction(&self, velocity: Vector3<f64>, normal_change: f64, mu: f64) -> Vector3<f64> {
-        let relative = velocity - self.surface_velocity;
-        let normal = self.normal * self.normal.dot(&relative);
-        self.surface_velocity + normal + coulomb_friction(relative - normal, normal_change, mu)
+    /// Coulomb friction as a tangential damping of the relative velocity, for
+    /// a normal force `normal_force` (N), coefficient `mu` and current velocity
+    /// `v`: returns the damping matrix `c (I − n nᵀ)` (N·s/m) with
+    /// `c = μ N / max(|v_T|, STICKING_SPEED)`, and the force it exerts now, N.
+    pub fn friction_damping(&self, v: &Vector3<f64>, normal_force: f64, mu: f64) -> (Matrix3<f64>, Vector3<f64>) {
+        let tangent_plane = Matrix3::identity() - self.normal * self.normal.transpose();
+        let sliding = tangent_plane * (v - self.surface_velocity);
+        let c = mu * normal_force / sliding.norm().max(STICKING_SPEED);
+        (tangent_plane * c, -sliding * c)
     }
 }
 
@@ -345,13 +333,17 @@ mod tests {
         assert!(velocity.x.abs() < 0.02, "{velocity}");
     }
 
+    /// Sliding: the damping force is μN against the sliding direction; nearly
+    /// stopped: it grows to hold the particle (static friction).
     #[test]
-    fn resting_contact_friction_uses_the_constraint_impulse() {
-        let contact = SurfaceContact::resting(&Vector3::new(0.0, 0.0025, 0.0), &[ground()], 0, false, WINDOW);
-        assert_eq!(contact.normal, Vector3::y());
-        let slowed = contact.with_friction(Vector3::new(1.0, 0.0, 0.0), 0.1, 0.5);
-        assert!((slowed - Vector3::new(0.95, 0.0, 0.0)).norm() < 1e-12);
-        assert_eq!(contact.with_friction(Vector3::new(0.01, 0.0, 0.0), 0.1, 0.5), Vector3::zeros());
+    fn friction_damping_is_coulomb_while_sliding_and_holds_when_stopped() {
+        let contact = SurfaceContact::resting(&Vector3::new(0.0, 0.0025, 0.0), &[ground()], 0, WINDOW);
+        assert_eq!(contact.constraint(), Constraint::Normal(Vector3::y()));
+        let (damping, force) = contact.friction_damping(&Vector3::new(2.0, -0.5, 0.0), 3.0, 0.5);
+        assert!((force - Vector3::new(-1.5, 0.0, 0.0)).norm() < 1e-12, "μN against the slide: {force}");
+        assert_eq!(damping * Vector3::y(), Vector3::zeros(), "no damping along the normal");
+        let (hold, _) = contact.friction_damping(&Vector3::zeros(), 3.0, 0.5);
+        assert!((hold[(0, 0)] - 1.5 / STICKING_SPEED).abs() < 1e-9);
     }
 
     #[test]
@@ -388,15 +380,5 @@ mod tests {
         let contact = SurfaceContact::predicted(&start, &end, 0.0025, &[ball], WINDOW).unwrap();
         let sideways = contact.normal_speed * contact.normal.x;
         assert!(sideways.abs() < 0.1 * 0.1 / WINDOW.h(), "{contact:?}");
-    }
-
-    #[test]
-    fn sticking_contact_moves_with_the_surface_until_its_impulse_leaves_the_cone() {
-        let contact = SurfaceContact::resting(&Vector3::new(0.0, 0.0025, 0.0), &[ground()], 0, true, WINDOW);
-        assert_eq!(contact.constraint(), Constraint::Fixed);
-        let v = Vector3::new(0.3, -0.1, 0.0);
-        assert_eq!(v + contact.prescribe(&v, &Vector3::new(5.0, 5.0, 5.0)), Vector3::zeros());
-        assert!(!contact.slips(&Vector3::new(0.4, 1.0, 0.0), 0.5));
-        assert!(contact.slips(&Vector3::new(0.6, 1.0, 0.0), 0.5));
     }
 }

@@ -24,6 +24,10 @@ pub struct Fabric {
     pub stretch_stiffness_n_per_m: f64,
     /// Stretch damping of a unit square, N·s/m (`StructDamp`).
     pub stretch_damping_n_s_per_m: f64,
+    /// Fraction of the stretch stiffness with which the cloth resists being
+    /// shortened in its own plane, unitless (0..1). Fabric buckles into folds
+    /// long before it compresses, so this is small for wovens and knits.
+    pub compression_ratio: f64,
     /// In-plane shear stiffness of a unit square, N/m (`ShearCoef`).
     pub shear_stiffness_n_per_m: f64,
     /// Shear damping of a unit square, N·s/m (`ShearDamp`).
@@ -79,6 +83,8 @@ impl Fabric {
         for (field, value, expected) in non_negative {
             check(field, value, value >= 0.0, expected)?;
         }
+        let c = self.compression_ratio;
+        check("compression_ratio", c, (0.0..=1.0).contains(&c), "0 ≤ value ≤ 1")?;
         for g in self.gravity_m_per_s2 {
             check("gravity_m_per_s2", g, g.abs() <= 1000.0, "components within ±1000 m/s²")?;
         }
@@ -102,6 +108,7 @@ pub(crate) mod tests {
             vertex_mass_kg: None,
             stretch_stiffness_n_per_m: 2000.0,
             stretch_damping_n_s_per_m: 0.04,
+            compression_ratio: 0.1,
             shear_stiffness_n_per_m: 60.0,
             shear_damping_n_s_per_m: 0.004,
             bend_stiffness_n_m: 1.6e-5,

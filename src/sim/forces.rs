@@ -10,6 +10,13 @@
 //! ∂f₀/∂v₀ = −c u uᵀ
 //! ```
 //!
+//! The stiffness is [`SpringStiffness::tension`] while the spring is longer than
+//! its rest length and [`SpringStiffness::compression`] while shorter: fabric
+//! buckles into folds long before it shortens in its own plane, so stretch
+//! springs resist compression only weakly. (A mesh can only fold at its own
+//! resolution; full compression stiffness makes a coarse mesh stand off where
+//! a fine one gathers, and the drape would depend on the mesh.)
+//!
 //! Under compression `1 − L/l < 0` makes the elastic Jacobian indefinite; the
 //! system matrix uses [`spring_stiffness_definite`], which drops the negative
 //! transverse term (Choi and Ko 2002), so the backward-Euler matrix stays
@@ -29,36 +36,58 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+/// Stiffness of a spring, N/m, by whether it is stretched or compressed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringStiffness {
+    /// While longer than the rest length.
+    pub tension: f64,
+    /// While shorter than the rest length.
+    pub compression: f64,
+}
+
+impl SpringStiffness {
+    /// The same stiffness both ways.
+    pub fn symmetric(k: f64) -> Self {
+        SpringStiffness { tension: k, compression: k }
+    }
+
+    /// The stiffness that applies at length `length` for rest length `rest`.
+    fn at(&self, length: f64, rest: f64) -> f64 {
+        if length < rest { self.compression } else { self.tension }
+    }
+}
+
 /// Force of a spring on its first particle, N. `d = x₀ − x₁` (m), `dv = v₀ − v₁`
 /// (m/s), `rest` length (m), stiffness `k` (N/m), damping `c` (N·s/m).
-pub fn spring_force(d: &Vector3<f64>, dv: &Vector3<f64>, rest: f64, k: f64, c: f64) -> Vector3<f64> {
+pub fn spring_force(d: &Vector3<f64>, dv: &Vector3<f64>, rest: f64, k: SpringStiffness, c: f64) -> Vector3<f64> {
     let length = d.norm();
     if length == 0.0 {
         return Vector3::zeros();
     }
     let u = d / length;
-    -u * (k * (length - rest) + c * u.dot(dv))
+    -u * (k.at(length, rest) * (length - rest) + c * u.dot(dv))
 }
 
-/// Exact elastic Jacobian `∂f₀/∂x₀` of a spring, N/m.
-pub fn spring_stiffness_jacobian(d: &Vector3<f64>, rest: f64, k: f64) -> Matrix3<f64> {
+/// Exact elastic Jacobian `∂f₀/∂x₀` of a spring, N/m (away from the rest
+/// length, where the stiffness changes).
+pub fn spring_stiffness_jacobian(d: &Vector3<f64>, rest: f64, k: SpringStiffness) -> Matrix3<f64> {
     elastic_jacobian(d, rest, k, |transverse| transverse)
 }
 
 /// The positive semi-definite part of `−∂f₀/∂x₀` used in the system matrix: the
 /// transverse term is kept only while the spring is stretched. N/m.
-pub fn spring_stiffness_definite(d: &Vector3<f64>, rest: f64, k: f64) -> Matrix3<f64> {
+pub fn spring_stiffness_definite(d: &Vector3<f64>, rest: f64, k: SpringStiffness) -> Matrix3<f64> {
     -elastic_jacobian(d, rest, k, |transverse| transverse.max(0.0))
 }
 
-fn elastic_jacobian(d: &Vector3<f64>, rest: f64, k: f64, transverse: impl Fn(f64) -> f64) -> Matrix3<f64> {
+fn elastic_jacobian(d: &Vector3<f64>, rest: f64, k: SpringStiffness, transverse: impl Fn(f64) -> f64) -> Matrix3<f64> {
     let length = d.norm();
     if length == 0.0 {
         return Matrix3::zeros();
     }
     let u = d / length;
     let axial = u * u.transpose();
-    -k * (axial + (Matrix3::identity() - axial) * transverse(1.0 - rest / length))
+    -k.at(length, rest) * (axial + (Matrix3::identity() - axial) * transverse(1.0 - rest / length))
 }
 
 /// Damping Jacobian `−∂f₀/∂v₀ = c u uᵀ` of a spring, N·s/m.
@@ -132,32 +161,34 @@ mod tests {
     proptest! {
         #[test]
         fn spring_stiffness_jacobian_matches_finite_differences(d in vec3(), rest in 0.1..1.5f64) {
-            prop_assume!(d.norm() > 0.05);
-            let (k, c) = (700.0, 0.0);
+            prop_assume!(d.norm() > 0.05 && (d.norm() - rest).abs() > 1e-4);
+            let (k, c) = (SpringStiffness { tension: 700.0, compression: 70.0 }, 0.0);
             let numeric = numeric_jacobian(|d| spring_force(d, &Vector3::zeros(), rest, k, c), &d);
             let exact = spring_stiffness_jacobian(&d, rest, k);
-            prop_assert!((numeric - exact).norm() < 1e-5 * k, "{numeric} vs {exact}");
+            prop_assert!((numeric - exact).norm() < 1e-5 * k.tension, "{numeric} vs {exact}");
         }
 
         #[test]
         fn spring_damping_jacobians_match_finite_differences(d in vec3(), dv in vec3()) {
             prop_assume!(d.norm() > 0.05);
             let c = 3.0;
-            let damping_force = |d: &Vector3<f64>, dv: &Vector3<f64>| spring_force(d, dv, d.norm(), 0.0, c);
+            let none = SpringStiffness::symmetric(0.0);
+            let damping_force = |d: &Vector3<f64>, dv: &Vector3<f64>| spring_force(d, dv, d.norm(), none, c);
             let by_velocity = numeric_jacobian(|v| damping_force(&d, v), &dv);
             prop_assert!((by_velocity + spring_damping_matrix(&d, c)).norm() < 1e-6);
-            let by_position = numeric_jacobian(|x| spring_force(x, &dv, 1.0, 0.0, c), &d);
+            let by_position = numeric_jacobian(|x| spring_force(x, &dv, 1.0, none, c), &d);
             prop_assert!((by_position - damping_position_jacobian(&d, &dv, c)).norm() < 1e-4);
         }
 
         #[test]
         fn definite_stiffness_is_positive_semidefinite(d in vec3(), rest in 0.1..1.5f64) {
             prop_assume!(d.norm() > 0.05);
-            let eigen = spring_stiffness_definite(&d, rest, 500.0).symmetric_eigenvalues();
+            let k = SpringStiffness { tension: 500.0, compression: 50.0 };
+            let eigen = spring_stiffness_definite(&d, rest, k).symmetric_eigenvalues();
             prop_assert!(eigen.iter().all(|&e| e >= -1e-9), "{eigen}");
             if d.norm() >= rest {
-                let exact = spring_stiffness_jacobian(&d, rest, 500.0);
-                prop_assert!((spring_stiffness_definite(&d, rest, 500.0) + exact).norm() < 1e-9);
+                let exact = spring_stiffness_jacobian(&d, rest, k);
+                prop_assert!((spring_stiffness_definite(&d, rest, k) + exact).norm() < 1e-9);
             }
         }
 
@@ -181,10 +212,13 @@ mod tests {
     }
 
     #[test]
-    fn spring_force_pulls_ends_together_when_stretched() {
-        let f = spring_force(&Vector3::new(2.0, 0.0, 0.0), &Vector3::zeros(), 1.5, 10.0, 0.0);
+    fn spring_force_pulls_ends_together_when_stretched_and_pushes_weakly_when_compressed() {
+        let k = SpringStiffness { tension: 10.0, compression: 1.0 };
+        let f = spring_force(&Vector3::new(2.0, 0.0, 0.0), &Vector3::zeros(), 1.5, k, 0.0);
         assert_eq!(f, Vector3::new(-5.0, 0.0, 0.0));
-        let damped = spring_force(&Vector3::new(1.5, 0.0, 0.0), &Vector3::new(2.0, 1.0, 0.0), 1.5, 10.0, 0.5);
+        let pushed = spring_force(&Vector3::new(1.0, 0.0, 0.0), &Vector3::zeros(), 1.5, k, 0.0);
+        assert_eq!(pushed, Vector3::new(0.5, 0.0, 0.0));
+        let damped = spring_force(&Vector3::new(1.5, 0.0, 0.0), &Vector3::new(2.0, 1.0, 0.0), 1.5, k, 0.5);
         assert_eq!(damped, Vector3::new(-1.0, 0.0, 0.0), "damping acts along the axis only");
     }
 

@@ -15,7 +15,7 @@ use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::cloth::Cloth;
-use super::forces::{spring_damping_matrix, spring_force, spring_stiffness_definite};
+use super::forces::{SpringStiffness, spring_damping_matrix, spring_force, spring_stiffness_definite};
 use super::parallel::CHUNK;
 use super::sparse::BlockPattern;
 
@@ -38,7 +38,7 @@ pub struct ParticleCoefficients {
 #[derive(Clone, Debug, Default)]
 pub struct SpringCoefficients {
     /// Stiffness, N/m.
-    pub stiffness: Vec<f64>,
+    pub stiffness: Vec<SpringStiffness>,
     /// Damping, N·s/m.
     pub damping: Vec<f64>,
 }

@@ -6,7 +6,7 @@
 //! exactly its prescribed velocity change, and a particle in contact keeps its
 //! prescribed velocity change along the contact normal while sliding freely
 //! along the surface. The preconditioner is the inverse of each 3×3 diagonal
-//! block. All reductions go through [`super::parallel::sum`], so the
+//! block, and convergence is measured in the norm it defines. All reductions go through [`super::parallel::sum`], so the
 //! result is bit-identical at any thread count.
 
 use nalgebra::{Matrix3, Vector3};
@@ -80,8 +80,9 @@ impl PcgWorkspace {
     }
 }
 
-/// Solves `A x = b` (block values `a` on `pattern`) starting from `x`; row `i`
-/// changes only in the directions `constraints[i]` leaves free.
+/// Solves `A x = b` (block values `a` on `pattern`) starting from `x` (or from
+/// its constrained part alone, if that is closer); row `i` changes only in the
+/// directions `constraints[i]` leaves free.
 ///
 /// `typical` is a right-hand side of the size that matters (for cloth, each
 /// particle's weight over a step): near equilibrium `b` itself tends to zero,
@@ -103,27 +104,35 @@ pub fn solve(
         *p = block.try_inverse().unwrap_or_else(|| Matrix3::from_diagonal(&block.diagonal().map(|d| 1.0 / d)));
     });
     let filter = |i: usize, v: Vector3<f64>| constraints[i].filter(v);
-
-    let norm = |v: &[Vector3<f64>], partials: &mut Vec<f64>, inverse_diagonal: &[Matrix3<f64>]| {
+    let PcgWorkspace { residual, direction, product, preconditioned, inverse_diagonal, partials } = ws;
+    let norm = |v: &[Vector3<f64>], partials: &mut Vec<f64>| {
         parallel::sum(n, partials, |i| {
             let vi = filter(i, v[i]);
             vi.dot(&(inverse_diagonal[i] * vi))
         })
     };
-    let reference =
-        norm(b, &mut ws.partials, &ws.inverse_diagonal).max(norm(typical, &mut ws.partials, &ws.inverse_diagonal));
-    pattern.multiply(a, x, &mut ws.product);
-    let PcgWorkspace { residual, direction, product, preconditioned, inverse_diagonal, partials } = ws;
+    let reference = norm(b, partials).max(norm(typical, partials));
+    let threshold = settings.tolerance * settings.tolerance * reference;
+
+    // Start from the given guess or from its prescribed part alone, whichever
+    // leaves the smaller residual: the last step's answer is a good guess for a
+    // cloth at rest and a poor one for a swinging cloth.
+    pattern.multiply(a, x, product);
     par_each(residual, |i, r| *r = filter(i, b[i] - product[i]));
+    let mut measure = norm(residual, partials);
+    par_each(preconditioned, |i, cold| *cold = x[i] - filter(i, x[i]));
+    pattern.multiply(a, preconditioned, product);
+    par_each(direction, |i, r| *r = filter(i, b[i] - product[i]));
+    let cold_measure = norm(direction, partials);
+    if cold_measure < measure {
+        x.copy_from_slice(preconditioned);
+        residual.copy_from_slice(direction);
+        measure = cold_measure;
+    }
     par_each(direction, |i, d| *d = filter(i, inverse_diagonal[i] * residual[i]));
     let mut delta = parallel::sum(n, partials, |i| residual[i].dot(&direction[i]));
-    let threshold = settings.tolerance * settings.tolerance * reference;
-    let relative = |delta: f64| {
-        if reference > 0.0 { (delta / reference).max(0.0).sqrt() } else { 0.0 }
-    };
-
     let mut iterations = 0;
-    while delta > threshold && iterations < settings.max_iterations {
+    while measure > threshold && iterations < settings.max_iterations {
         pattern.multiply(a, direction, product);
         par_each(product, |i, q| *q = filter(i, *q));
         let curvature = parallel::sum(n, partials, |i| direction[i].dot(&product[i]));
@@ -138,14 +147,19 @@ pub fn solve(
                 *ri -= product[i] * alpha;
             }
         });
-        par_each(preconditioned, |i, s| *s = filter(i, inverse_diagonal[i] * residual[i]));
+        iterations += 1;
+        measure = norm(residual, partials);
+        if measure <= threshold {
+            break;
+        }
+        par_each(preconditioned, |i, z| *z = filter(i, inverse_diagonal[i] * residual[i]));
         let previous = delta;
         delta = parallel::sum(n, partials, |i| residual[i].dot(&preconditioned[i]));
         let beta = delta / previous;
         par_each(direction, |i, d| *d = filter(i, preconditioned[i] + *d * beta));
-        iterations += 1;
     }
-    PcgReport { iterations, relative_residual: relative(delta), converged: delta <= threshold }
+    let relative = if reference > 0.0 { (measure / reference).max(0.0).sqrt() } else { 0.0 };
+    PcgReport { iterations, relative_residual: relative, converged: measure <= threshold }
 }
 
 /// Sets every element of `v` from its index, in parallel chunks.

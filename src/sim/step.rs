@@ -4,14 +4,13 @@
 //!
 //! 1. **springs**: every spring's force and system block (parallel);
 //! 2. **assembly**: the backward-Euler matrix and right-hand side (parallel);
-//! 3. **solve**: filtered PCG for the velocity change, with pins prescribed and
-//!    particles resting on a collider held to its surface velocity along the
-//!    normal. Then detect → respond passes: particles whose solved path would
-//!    reach a collider are constrained to arrive at its surface, sticking
-//!    particles whose impulse leaves the friction cone start to slide, and the
-//!    system is solved again, so the whole cloth feels each change within the
-//!    step.
-//!    The constraint impulses give the friction (eq. 15), and a contact whose
+//! 3. **solve**: filtered PCG for the velocity change. Pins are prescribed;
+//!    particles resting on a collider are held to its surface along the normal
+//!    and feel Coulomb friction as an implicit tangential damping (μN/|v_T|,
+//!    with N from the previous step's constraint impulse). Then detect →
+//!    respond passes: particles whose solved path would reach a collider are
+//!    constrained to arrive at its surface and the system is solved again, so
+//!    the whole cloth feels each new contact within the step. A contact whose
 //!    impulse pulls instead of pushing is released for the next step;
 //! 4. **collisions**: each particle's path against the analytic colliders;
 //! 5. **finish**: pins placed exactly, finiteness check, commit, strain.
@@ -43,6 +42,10 @@ const NO_COLLIDER: u32 = u32::MAX;
 /// Most solves per step when new contacts keep appearing; contacts still new
 /// after the last are handled by the collision stage alone.
 const CONTACT_PASSES: u32 = 4;
+
+/// A new contact that moves its particle by less than this fraction of the
+/// thickness over the step does not call for another solve.
+const RESOLVE_SHIFT: f64 = 0.5;
 
 /// A particle held by the scene: fixed where it starts, or carried by a motion.
 #[derive(Clone, Debug, PartialEq)]
@@ -178,11 +181,8 @@ pub struct Simulator {
     resting_on: Vec<u32>,
     /// Particles whose contact pulled in the last solve: free for one step.
     released: Vec<bool>,
-    /// Particles static friction held at the end of the last step.
-    sticking: Vec<bool>,
-    /// Sticking particles whose constraint impulse left the friction cone in
-    /// this step's solve: they slide from the next step.
-    slipping: Vec<bool>,
+    /// Normal force of each particle's contact in the last solve, N.
+    normal_force: Vec<f64>,
     colliders: Vec<Collider>,
     settings: PcgSettings,
     x: Vec<Vector3<f64>>,
@@ -230,8 +230,7 @@ impl Simulator {
             fixed,
             resting_on: vec![NO_COLLIDER; n],
             released: vec![false; n],
-            sticking: vec![false; n],
-            slipping: vec![false; n],
+            normal_force: vec![0.0; n],
             colliders,
             settings,
             x: cloth.rest_positions.clone(),
@@ -334,20 +333,16 @@ impl Simulator {
             if report.solves == CONTACT_PASSES || self.colliders.is_empty() {
                 break;
             }
-            let slipped = if report.resting_contacts > 0 { self.slip_outside_cone() } else { 0 };
-            let new_contacts = self.predict_contacts(window);
+            let (new_contacts, significant) = self.predict_contacts(window);
             report.resting_contacts += new_contacts;
-            if slipped + new_contacts == 0 {
+            if significant == 0 {
                 break;
             }
         }
-        if report.resting_contacts > 0 {
-            self.apply_contact_impulses();
-        }
+        self.record_contact_forces(h);
         report.timings.solve = lap();
 
         report.contacts = self.integrate_and_collide(window);
-        self.update_sticking(window);
         report.timings.collisions = lap();
 
         for k in 0..self.pins.len() {
@@ -369,44 +364,60 @@ impl Simulator {
 
     /// Sets each particle's constraint for the solve and the prescribed part of
     /// its velocity change: pins move to their target; a particle resting on a
-    /// collider (and not released) keeps the surface's normal velocity.
-    /// Returns the number of resting contacts.
+    /// collider (and not released) keeps the surface's normal velocity, and its
+    /// friction joins the system as a tangential damping. Returns the number of
+    /// resting contacts.
     fn prepare_constraints(&mut self, window: StepWindow) -> u32 {
         let n = self.x.len();
+        let h = window.h();
         let ws = &mut self.ws;
         ws.constraints.resize(n, Constraint::Free);
         ws.surface_contacts.resize(n, None);
-        let (x, v, colliders) = (&self.x, &self.v, &self.colliders);
-        let (resting_on, released, fixed, sticking) = (&self.resting_on, &self.released, &self.fixed, &self.sticking);
+        let (x, v, colliders, surfaces) = (&self.x, &self.v, &self.colliders, &self.surfaces);
+        let (resting_on, released, fixed, normal_force) =
+            (&self.resting_on, &self.released, &self.fixed, &self.normal_force);
         ws.constraints
             .par_iter_mut()
             .zip(ws.surface_contacts.par_iter_mut())
-            .zip(ws.velocity_change.par_iter_mut())
+            .zip(ws.velocity_change.par_iter_mut().zip(ws.system.rhs.par_iter_mut()))
             .enumerate()
             .with_min_len(CHUNK)
-            .for_each(|(i, ((constraint, contact), dv))| {
+            .for_each(|(i, ((constraint, contact), (dv, rhs)))| {
                 *contact = None;
                 *constraint = if fixed[i] { Constraint::Fixed } else { Constraint::Free };
                 if fixed[i] || released[i] || resting_on[i] == NO_COLLIDER {
                     return;
                 }
-                let surface = SurfaceContact::resting(&x[i], colliders, resting_on[i], sticking[i], window);
+                let surface = SurfaceContact::resting(&x[i], colliders, resting_on[i], window);
+                let mu = colliders[surface.collider as usize].friction.unwrap_or(surfaces[i].friction);
+                let (_, force) = surface.friction_damping(&v[i], normal_force[i], mu);
+                *rhs += force * h;
                 *constraint = surface.constraint();
                 *dv = surface.prescribe(&v[i], dv);
                 *contact = Some(surface);
             });
+        // The damping's Jacobian joins the diagonal blocks.
+        for i in 0..n {
+            if let Some(surface) = &self.ws.surface_contacts[i] {
+                let mu = self.colliders[surface.collider as usize].friction.unwrap_or(self.surfaces[i].friction);
+                let (damping, _) = surface.friction_damping(&self.v[i], self.normal_force[i], mu);
+                self.ws.system.matrix[self.layout.pattern.diagonal(i)] += damping * h;
+            }
+        }
         for k in 0..self.pins.len() {
             let i = self.pins[k].vertex as usize;
             let target = self.pin_target(k, window.t1);
-            self.ws.velocity_change[i] = (target - self.x[i]) / window.h() - self.v[i];
+            self.ws.velocity_change[i] = (target - self.x[i]) / h - self.v[i];
         }
         self.ws.surface_contacts.par_iter().filter(|c| c.is_some()).count() as u32
     }
 
     /// One detect pass: every particle still free whose solved path would
     /// reach a collider becomes constrained to arrive at its surface. Returns
-    /// the number of new contacts.
-    fn predict_contacts(&mut self, window: StepWindow) -> u32 {
+    /// the number of new contacts, and how many of them change their particle's
+    /// path by more than a fraction of the thickness (only those are worth
+    /// solving again for; the rest are particles creeping onto a surface).
+    fn predict_contacts(&mut self, window: StepWindow) -> (u32, u32) {
         let ws = &mut self.ws;
         let (x, v, colliders, surfaces) = (&self.x, &self.v, &self.colliders, &self.surfaces);
         ws.constraints
@@ -417,85 +428,41 @@ impl Simulator {
             .with_min_len(CHUNK)
             .map(|(i, ((constraint, contact), dv))| {
                 if *constraint != Constraint::Free {
-                    return 0;
+                    return (0, 0);
                 }
                 let end = x[i] + (v[i] + *dv) * window.h();
-                let Some(surface) = SurfaceContact::predicted(&x[i], &end, surfaces[i].thickness, colliders, window)
-                else {
-                    return 0;
+                let thickness = surfaces[i].thickness;
+                let Some(surface) = SurfaceContact::predicted(&x[i], &end, thickness, colliders, window) else {
+                    return (0, 0);
                 };
+                let corrected = surface.prescribe(&v[i], dv);
+                let shift = (corrected - *dv).norm() * window.h();
                 *constraint = surface.constraint();
-                *dv = surface.prescribe(&v[i], dv);
+                *dv = corrected;
                 *contact = Some(surface);
-                1
+                (1, u32::from(shift > RESOLVE_SHIFT * thickness))
             })
-            .sum()
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
     }
 
-    /// Constraint impulses `b − A Δv` of the last solve, into the workspace.
-    fn constraint_impulses(&mut self) {
+    /// Reads each contact's normal impulse from the final solve's residual
+    /// `b − A Δv`: its force drives the friction of the next step; a pulling
+    /// contact is released for the next step instead.
+    fn record_contact_forces(&mut self, h: f64) {
         let ws = &mut self.ws;
-        ws.residual.resize(self.x.len(), Vector3::zeros());
-        self.layout.pattern.multiply(&ws.system.matrix, &ws.velocity_change, &mut ws.residual);
-        let rhs = &ws.system.rhs;
-        ws.residual.par_iter_mut().zip(rhs.par_iter()).with_min_len(CHUNK).for_each(|(r, b)| *r = b - *r);
-    }
-
-    /// One respond pass of static friction: every sticking contact whose
-    /// constraint impulse lies outside the friction cone starts sliding (its
-    /// tangential velocity is freed for the next solve). Returns how many.
-    fn slip_outside_cone(&mut self) -> u32 {
-        self.constraint_impulses();
-        let ws = &mut self.ws;
-        let (v, surfaces, colliders, impulses) = (&self.v, &self.surfaces, &self.colliders, &ws.residual);
-        ws.surface_contacts
-            .par_iter_mut()
-            .zip(ws.constraints.par_iter_mut().zip(ws.velocity_change.par_iter_mut()))
-            .enumerate()
-            .with_min_len(CHUNK)
-            .map(|(i, (contact, (constraint, dv)))| {
-                let Some(c) = contact.as_mut().filter(|c| c.sticking) else { return 0 };
-                let mu = colliders[c.collider as usize].friction.unwrap_or(surfaces[i].friction);
-                if !c.slips(&impulses[i], mu) {
-                    return 0;
-                }
-                c.sticking = false;
-                *constraint = c.constraint();
-                *dv = c.prescribe(&v[i], dv);
-                1
-            })
-            .sum()
-    }
-
-    /// Reads each contact's final constraint impulse. A pulling contact is
-    /// released for the next step; a sticking one whose impulse left the cone
-    /// after the last pass slips from the next step; a sliding one turns its
-    /// normal impulse into Coulomb friction.
-    fn apply_contact_impulses(&mut self) {
-        self.constraint_impulses();
-        let ws = &mut self.ws;
-        let (contacts, impulses) = (&ws.surface_contacts, &ws.residual);
-        let (v, mass, surfaces, colliders) = (&self.v, &self.particles.mass, &self.surfaces, &self.colliders);
-        ws.velocity_change
-            .par_iter_mut()
-            .zip(self.released.par_iter_mut().zip(self.slipping.par_iter_mut()))
-            .enumerate()
-            .with_min_len(CHUNK)
-            .for_each(|(i, (dv, (released, slipping)))| {
-                (*released, *slipping) = (false, false);
-                let Some(contact) = &contacts[i] else { return };
-                let normal_impulse = impulses[i].dot(&contact.normal);
-                if normal_impulse < 0.0 {
-                    *released = true;
-                    return;
-                }
-                let mu = colliders[contact.collider as usize].friction.unwrap_or(surfaces[i].friction);
-                if contact.sticking {
-                    *slipping = contact.slips(&impulses[i], mu);
-                } else {
-                    *dv = contact.with_friction(v[i] + *dv, normal_impulse / mass[i], mu) - v[i];
-                }
-            });
+        let any_contact = ws.surface_contacts.iter().any(Option::is_some);
+        if any_contact {
+            ws.residual.resize(self.x.len(), Vector3::zeros());
+            self.layout.pattern.multiply(&ws.system.matrix, &ws.velocity_change, &mut ws.residual);
+        }
+        let (contacts, product, rhs) = (&ws.surface_contacts, &ws.residual, &ws.system.rhs);
+        self.normal_force.par_iter_mut().zip(self.released.par_iter_mut()).enumerate().with_min_len(CHUNK).for_each(
+            |(i, (force, released))| {
+                let impulse = contacts[i].as_ref().map_or(0.0, |c| (rhs[i] - product[i]).dot(&c.normal));
+                *released = impulse < 0.0;
+                *force = impulse.max(0.0) / h;
+            },
+        );
     }
 
     /// `v ← v + Δv`, `x ← x + h v` into the next-state buffers, then each free
@@ -526,20 +493,6 @@ impl Simulator {
                 };
             });
         ws.contacts.par_iter().map(|&c| c as u64).sum::<u64>() as u32
-    }
-
-    /// A particle sticks from the next step when it ends this one resting on a
-    /// collider with no velocity relative to its surface, unless its impulse
-    /// just left the friction cone.
-    fn update_sticking(&mut self, window: StepWindow) {
-        let (next_x, next_v, resting_on, slipping) =
-            (&self.ws.next_x, &self.ws.next_v, &self.resting_on, &self.slipping);
-        let colliders = &self.colliders;
-        self.sticking.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(i, sticking)| {
-            *sticking = colliders
-                .get(resting_on[i] as usize)
-                .is_some_and(|c| !slipping[i] && (next_v[i] - c.surface_velocity(&next_x[i], window.t1)).norm() == 0.0);
-        });
     }
 
     /// Max and mean strain |l − l₀| / l₀ over the stretch springs.

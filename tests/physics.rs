@@ -1,0 +1,197 @@
+//! Physics of the core solver, checked against closed forms and invariants.
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use drape::bake;
+use drape::scene::Scene;
+use drape::scene::file::MeshSpec;
+use nalgebra::Vector3;
+
+fn scene(text: &str) -> Scene {
+    Scene::parse(text, "test", Path::new("."), "test scene").unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn standard(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes").join(format!("{name}.toml"))
+}
+
+/// A small free cloth, no colliders, no air: every particle follows backward
+/// Euler's recurrence for constant gravity exactly, which lags the continuous
+/// parabola y₀ − g t²/2 by g h t / 2 (the integrator's known numerical damping).
+#[test]
+fn free_fall_follows_backward_euler_and_the_parabola() {
+    let s = scene(
+        r#"
+        [time]
+        fps = 30.0
+        duration_s = 1.0
+        [solver]
+        steps_per_frame = 4
+        tolerance = 1e-12
+        [[garment]]
+        name = "cloth"
+        preset = "cotton"
+        fabric = { air_damping_per_s = 0.0 }
+        mesh = { grid = { size_m = 0.5, resolution = 8 } }
+        translation_m = [0.0, 10.0, 0.0]
+        "#,
+    );
+    let mut sim = s.simulator().unwrap();
+    let (h, g) = (s.step_duration(), 9.81);
+    let mut y_expected = 10.0;
+    let mut v_expected = 0.0;
+    for n in 1..=120 {
+        sim.step(h).unwrap();
+        v_expected -= g * h;
+        y_expected += h * v_expected;
+        let t = n as f64 * h;
+        for p in sim.positions() {
+            assert!((p.y - y_expected).abs() < 1e-9, "step {n}: {} vs {y_expected}", p.y);
+        }
+        let parabola = 10.0 - 0.5 * g * t * t;
+        assert!((y_expected - (parabola - 0.5 * g * h * t)).abs() < 1e-9);
+    }
+}
+
+/// With air damping d, backward Euler gives v ← (v − g h)/(1 + h d) exactly.
+#[test]
+fn air_damping_follows_its_implicit_recurrence() {
+    let s = scene(
+        r#"
+        [time]
+        duration_s = 1.0
+        [solver]
+        steps_per_frame = 2
+        tolerance = 1e-12
+        [[garment]]
+        name = "cloth"
+        preset = "silk"
+        fabric = { air_damping_per_s = 3.0, time_step_s = 0.05 }
+        mesh = { grid = { size_m = 0.3, resolution = 5 } }
+        "#,
+    );
+    let mut sim = s.simulator().unwrap();
+    let (h, g, d) = (s.step_duration(), 9.81, 3.0);
+    let mut v = 0.0;
+    for _ in 0..120 {
+        sim.step(h).unwrap();
+        v = (v - g * h) / (1.0 + h * d);
+        for u in sim.velocities() {
+            assert!((u.y - v).abs() < 1e-10, "{} vs {v}", u.y);
+        }
+    }
+    assert!((v + g / d).abs() < 0.05 * g / d, "approaches the terminal velocity −g/d");
+}
+
+/// A cloth hanging from two corners comes to rest, and the pins then carry
+/// exactly its weight. Pinned particles never move.
+#[test]
+fn hanging_cloth_comes_to_rest_and_the_pins_carry_its_weight() {
+    let s = scene(
+        r#"
+        [time]
+        fps = 30.0
+        duration_s = 12.0
+        [solver]
+        steps_per_frame = 2
+        tolerance = 1e-6
+        [[garment]]
+        name = "cloth"
+        preset = "cotton"
+        fabric = { air_damping_per_s = 1.5 }
+        mesh = { grid = { size_m = 0.5, resolution = 12 } }
+        translation_m = [0.0, 1.0, 0.0]
+        [[garment.pin]]
+        vertices = [0, 11]
+        "#,
+    );
+    let mut sim = s.simulator().unwrap();
+    let pinned: Vec<Vector3<f64>> = [0, 11].iter().map(|&i| sim.positions()[i]).collect();
+    let h = s.step_duration();
+    for _ in 0..s.frame_count * s.steps_per_frame as usize {
+        sim.step(h).unwrap();
+        assert_eq!(sim.positions()[0], pinned[0], "pins stay exactly put");
+        assert_eq!(sim.positions()[11], pinned[1]);
+    }
+    assert!(sim.kinetic_energy() < 1e-9, "at rest: KE = {} J", sim.kinetic_energy());
+    let weight = sim.cloth().mass.iter().sum::<f64>() * 9.81;
+    let reaction = sim.pin_reaction();
+    assert!((reaction.y - weight).abs() < 0.01 * weight, "reaction {reaction} vs weight {weight}");
+    assert!(reaction.xz().norm() < 0.01 * weight);
+}
+
+/// Bakes `scene` and hands every frame's positions to `check`.
+fn bake_frames(scene: &Scene, mut check: impl FnMut(usize, &[Vector3<f64>])) {
+    let (records, failure) = bake::run(scene, scene.frame_count, &AtomicBool::new(false), |sim, record| {
+        check(record.frame, sim.positions());
+        Ok(())
+    })
+    .unwrap();
+    assert!(failure.is_none(), "{failure:?}");
+    assert_eq!(records.len(), scene.frame_count);
+}
+
+/// `drape_sphere`: no particle inside the sphere or below the ground at any
+/// frame end, and the cloth ends draped, its lowest point below the equator.
+#[test]
+fn drape_sphere_never_penetrates_and_ends_draped() {
+    let s = Scene::load(&standard("drape_sphere")).unwrap();
+    let centre = Vector3::new(0.0, 0.5, 0.0);
+    let mut lowest = f64::INFINITY;
+    bake_frames(&s, |frame, x| {
+        for (i, p) in x.iter().enumerate() {
+            assert!((p - centre).norm() >= 0.3, "frame {frame}: particle {i} inside the sphere at {p}");
+            assert!(p.y >= 0.0, "frame {frame}: particle {i} below the ground");
+        }
+        lowest = x.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+    });
+    assert!(lowest < 0.5, "lowest point {lowest} m is not below the equator");
+}
+
+/// Final positions of `drape_sphere` at grid resolution `n`.
+fn drape_sphere_at(n: usize) -> Vec<Vector3<f64>> {
+    let s = Scene::load_edited(&standard("drape_sphere"), |file| {
+        if let MeshSpec::Grid { resolution, .. } = &mut file.garments[0].mesh {
+            *resolution = n;
+        }
+    })
+    .unwrap();
+    let mut last = Vec::new();
+    bake_frames(&s, |_, x| last = x.to_vec());
+    last
+}
+
+/// Stiffness and mass are per unit area, so halving the edge length leaves the
+/// drape nearly unchanged: lowest point and bounding box within 3 cm.
+#[test]
+fn drape_does_not_depend_on_mesh_resolution() {
+    let bounds = |x: &[Vector3<f64>]| {
+        x.iter().fold((Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)), |(lo, hi), p| {
+            (lo.inf(p), hi.sup(p))
+        })
+    };
+    let (coarse, fine) = (bounds(&drape_sphere_at(32)), bounds(&drape_sphere_at(64)));
+    assert!((coarse.0 - fine.0).amax() < 0.03, "min corners {} vs {}", coarse.0, fine.0);
+    assert!((coarse.1 - fine.1).amax() < 0.03, "max corners {} vs {}", coarse.1, fine.1);
+}
+
+/// Same scene, same settings: the same bake bit for bit, also on one thread
+/// against two.
+#[test]
+fn bakes_are_bit_identical_across_runs_and_thread_counts() {
+    let s = Scene::load(&standard("drape_sphere")).unwrap();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let mut frames = Vec::new();
+            bake_frames(&s, |_, x| {
+                frames.push(x.iter().flat_map(|p| p.iter().map(|c| c.to_bits())).collect::<Vec<_>>())
+            });
+            frames
+        })
+    };
+    let two = run(2);
+    assert_eq!(two, run(2), "two runs on two threads differ");
+    assert_eq!(two, run(1), "one thread differs from two");
+}
