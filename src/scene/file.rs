@@ -30,6 +30,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::sim::motion::MotionSpec;
+use crate::sim::pcg::PreconditionerKind;
 
 /// A whole scene file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -84,6 +85,10 @@ pub struct SolverSettings {
     /// Iteration cap of the conjugate-gradient solve.
     #[serde(default = "default_max_iterations")]
     pub max_iterations: u32,
+    /// Preconditioner of the conjugate-gradient solve: `multigrid` (default)
+    /// or `block_jacobi`.
+    #[serde(default)]
+    pub preconditioner: PreconditionerKind,
 }
 
 fn default_tolerance() -> f64 {
@@ -100,6 +105,7 @@ impl Default for SolverSettings {
             steps_per_frame: None,
             tolerance: default_tolerance(),
             max_iterations: default_max_iterations(),
+            preconditioner: PreconditionerKind::default(),
         }
     }
 }

@@ -241,7 +241,11 @@ impl Resolver<'_> {
             fps,
             frame_count: (file.time.duration_s * fps).round().max(1.0) as usize,
             steps_per_frame,
-            solver: PcgSettings { tolerance: solver.tolerance, max_iterations: solver.max_iterations },
+            solver: PcgSettings {
+                tolerance: solver.tolerance,
+                max_iterations: solver.max_iterations,
+                preconditioner: solver.preconditioner,
+            },
             garments,
             colliders,
             file,

@@ -13,6 +13,7 @@ pub mod fabric;
 pub mod forces;
 pub mod implicit;
 pub mod motion;
+pub mod multigrid;
 pub mod parallel;
 pub mod pcg;
 pub mod sparse;

@@ -10,6 +10,25 @@ use rayon::prelude::*;
 /// enough to balance two cores on a 4k-vertex cloth.
 pub const CHUNK: usize = 256;
 
+/// Loops over fewer elements than this run on the calling thread: waking the
+/// pool costs more than the work (the coarse levels of the multigrid).
+pub const PARALLEL_FROM: usize = 4 * CHUNK;
+
+/// Sets every element of `v` from its index: in parallel chunks when `v` is
+/// long enough to pay for it, on the calling thread otherwise. The result does
+/// not depend on which.
+pub fn for_each_indexed<T: Send>(v: &mut [T], f: impl Fn(usize, &mut T) + Sync) {
+    if v.len() < PARALLEL_FROM {
+        v.iter_mut().enumerate().for_each(|(i, e)| f(i, e));
+        return;
+    }
+    v.par_chunks_mut(CHUNK).enumerate().for_each(|(c, chunk)| {
+        for (k, e) in chunk.iter_mut().enumerate() {
+            f(c * CHUNK + k, e);
+        }
+    });
+}
+
 /// Number of chunks covering `len` elements.
 pub fn chunk_count(len: usize) -> usize {
     len.div_ceil(CHUNK)
@@ -19,7 +38,7 @@ pub fn chunk_count(len: usize) -> usize {
 /// in order. `partials` is scratch space (resized once, then reused).
 pub fn sum(len: usize, partials: &mut Vec<f64>, term: impl Fn(usize) -> f64 + Sync) -> f64 {
     partials.resize(chunk_count(len), 0.0);
-    partials.par_iter_mut().enumerate().for_each(|(c, slot)| {
+    for_each_indexed(partials, |c, slot| {
         let range = c * CHUNK..((c + 1) * CHUNK).min(len);
         *slot = range.map(&term).sum();
     });

@@ -3,10 +3,8 @@
 
 use std::ops::Range;
 
+use super::parallel::for_each_indexed;
 use nalgebra::{Matrix3, Vector3};
-use rayon::prelude::*;
-
-use super::parallel::CHUNK;
 
 /// Which blocks of an `n × n` block matrix may be non-zero, in compressed rows
 /// with sorted columns. Every diagonal block is present.
@@ -75,12 +73,7 @@ impl BlockPattern {
 
     /// `y = A x` for block values `a`, parallel over rows.
     pub fn multiply(&self, a: &[Matrix3<f64>], x: &[Vector3<f64>], y: &mut [Vector3<f64>]) {
-        y.par_chunks_mut(CHUNK).enumerate().for_each(|(c, rows)| {
-            for (k, yi) in rows.iter_mut().enumerate() {
-                let i = c * CHUNK + k;
-                *yi = self.row(i).map(|s| a[s] * x[self.column(s)]).sum();
-            }
-        });
+        for_each_indexed(y, |i, yi| *yi = self.row(i).map(|s| a[s] * x[self.column(s)]).sum());
     }
 
     /// `Σⱼ q_ij x_j` for row `i` of a matrix whose blocks are `q_ij · I`.

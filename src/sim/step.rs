@@ -33,8 +33,9 @@ use super::implicit::{
     net_forces,
 };
 use super::motion::RigidMotion;
+use super::multigrid::Multigrid;
 use super::parallel::{self, CHUNK};
-use super::pcg::{self, Constraint, PcgReport, PcgSettings, PcgWorkspace};
+use super::pcg::{self, Constraint, PcgReport, PcgSettings, PcgWorkspace, PreconditionerKind, Preconditioning};
 
 /// No collider (in per-particle collider indices).
 const NO_COLLIDER: u32 = u32::MAX;
@@ -185,6 +186,7 @@ pub struct Simulator {
     normal_force: Vec<f64>,
     colliders: Vec<Collider>,
     settings: PcgSettings,
+    multigrid: Option<Multigrid>,
     x: Vec<Vector3<f64>>,
     v: Vec<Vector3<f64>>,
     time: f64,
@@ -219,8 +221,12 @@ impl Simulator {
         let stretch_springs = (0..cloth.spring_count() as u32)
             .filter(|&s| cloth.spring_kind[s as usize] == SpringKind::Stretch)
             .collect();
+        let layout = SystemLayout::new(&cloth);
+        let multigrid = (settings.preconditioner == PreconditionerKind::Multigrid)
+            .then(|| Multigrid::new(&layout.pattern, &cloth.spring_ends));
         Ok(Simulator {
-            layout: SystemLayout::new(&cloth),
+            layout,
+            multigrid,
             particles: ParticleCoefficients::new(&cloth),
             springs: SpringCoefficients::new(&cloth),
             surfaces,
@@ -318,6 +324,9 @@ impl Simulator {
         self.ws.weight_impulse.clear();
         self.ws.weight_impulse.extend((0..n).map(|i| gravity[i] * (mass[i] * h)));
         loop {
+            if let Some(multigrid) = &mut self.multigrid {
+                multigrid.prepare(&self.ws.system.matrix, &self.ws.constraints, &self.x);
+            }
             let solve = pcg::solve(
                 &self.layout.pattern,
                 &self.ws.system.matrix,
@@ -326,6 +335,10 @@ impl Simulator {
                 &self.ws.constraints,
                 &mut self.ws.velocity_change,
                 self.settings,
+                match &mut self.multigrid {
+                    Some(multigrid) => Preconditioning::Multigrid(multigrid),
+                    None => Preconditioning::BlockJacobi,
+                },
                 &mut self.ws.pcg,
             );
             report.solver = PcgReport { iterations: report.solver.iterations + solve.iterations, ..solve };
