@@ -292,7 +292,53 @@ pub struct Multigrid {
     centroids: Vec<Vec<Vector3<f64>>>,
     fine_level: Level<3>,
     coarse_levels: Vec<Level<6>>,
-    coarsest: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+    coarsest: Coarsest,
+}
+
+/// The coarsest level's dense Cholesky factor, with buffers reused from solve
+/// to solve.
+#[derive(Clone, Debug)]
+struct Coarsest {
+    factor: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+    spare: DMatrix<f64>,
+    vector: DVector<f64>,
+}
+
+impl Coarsest {
+    /// Factors the block matrix `a` on `pattern` (no factor if it is not
+    /// positive definite).
+    fn factor<const D: usize>(&mut self, pattern: &BlockPattern, a: &[SMatrix<f64, D, D>]) {
+        let n = D * pattern.rows();
+        let mut m = match self.factor.take() {
+            Some(f) => f.unpack(),
+            None => std::mem::replace(&mut self.spare, DMatrix::zeros(0, 0)),
+        };
+        if m.shape() != (n, n) {
+            m = DMatrix::zeros(n, n);
+        }
+        m.fill(0.0);
+        for i in 0..pattern.rows() {
+            for s in pattern.row(i) {
+                m.view_mut((D * i, D * pattern.column(s)), (D, D)).copy_from(&a[s]);
+            }
+        }
+        self.factor = nalgebra::Cholesky::new(m);
+        self.vector.resize_vertically_mut(n, 0.0);
+    }
+
+    /// Solves for the stacked `rhs` into `solution` (zero without a factor).
+    fn solve<const D: usize>(&mut self, rhs: &[SVector<f64, D>], solution: &mut [SVector<f64, D>]) {
+        for (i, b) in rhs.iter().enumerate() {
+            self.vector.fixed_rows_mut::<D>(D * i).copy_from(b);
+        }
+        match &self.factor {
+            Some(f) => f.solve_mut(&mut self.vector),
+            None => self.vector.fill(0.0),
+        }
+        for (i, x) in solution.iter_mut().enumerate() {
+            *x = self.vector.fixed_rows::<D>(D * i).into();
+        }
+    }
 }
 
 impl Multigrid {
@@ -318,7 +364,7 @@ impl Multigrid {
             points: Vec::new(),
             projectors: Vec::new(),
             fine_level: Level::default(),
-            coarsest: None,
+            coarsest: Coarsest { factor: None, spare: DMatrix::zeros(0, 0), vector: DVector::zeros(0) },
         }
     }
 
@@ -352,10 +398,10 @@ impl Multigrid {
             }
             level.prepare(&transfer.coarse, |m| m.try_inverse());
         }
-        self.coarsest = match (self.transfers.last(), self.coarse_levels.last()) {
-            (Some(t), Some(bottom)) => dense(&t.coarse, &bottom.matrix).cholesky(),
-            _ => dense(&self.fine, &self.fine_level.matrix).cholesky(),
-        };
+        match (self.transfers.last(), self.coarse_levels.last()) {
+            (Some(t), Some(bottom)) => self.coarsest.factor(&t.coarse, &bottom.matrix),
+            _ => self.coarsest.factor(&self.fine, &self.fine_level.matrix),
+        }
     }
 
     /// One V-cycle for `r` into `z`: down the levels smoothing and restricting,
@@ -363,11 +409,7 @@ impl Multigrid {
     pub fn apply(&mut self, r: &[Vector3<f64>], z: &mut [Vector3<f64>]) {
         let depth = self.transfers.len();
         if depth == 0 {
-            let b = DVector::from_iterator(r.len() * 3, r.iter().flat_map(|v| v.iter().copied()));
-            let x = self.coarsest.as_ref().map_or_else(|| b.clone(), |f| f.solve(&b));
-            for (i, zi) in z.iter_mut().enumerate() {
-                *zi = x.fixed_rows::<3>(3 * i).into();
-            }
+            self.coarsest.solve(r, z);
             return;
         }
         let projectors = &self.projectors;
@@ -384,11 +426,7 @@ impl Multigrid {
             self.transfers[k].restrict(&level.residual, from, to, |_, d| patch_rigid(d), &mut lower[0].rhs);
         }
         let bottom = &mut self.coarse_levels[depth - 1];
-        let b = DVector::from_iterator(bottom.rhs.len() * 6, bottom.rhs.iter().flat_map(|v| v.iter().copied()));
-        let x = self.coarsest.as_ref().map_or_else(|| DVector::zeros(b.len()), |f| f.solve(&b));
-        for (i, s) in bottom.solution.iter_mut().enumerate() {
-            *s = x.fixed_rows::<6>(6 * i).into();
-        }
+        self.coarsest.solve(&bottom.rhs, &mut bottom.solution);
         for k in (1..depth).rev() {
             let (upper, lower) = self.coarse_levels.split_at_mut(k);
             let level = &mut upper[k - 1];
@@ -488,9 +526,10 @@ fn filtered_matrix(
 ) {
     out.clear();
     out.extend_from_slice(a);
-    let rows: Vec<usize> = (0..pattern.rows()).filter(|&i| projectors[i] != Matrix3::identity()).collect();
-    for i in rows {
-        let si = projectors[i];
+    for (i, &si) in projectors.iter().enumerate() {
+        if si == Matrix3::identity() {
+            continue;
+        }
         let diagonal = pattern.diagonal(i);
         for s in pattern.row(i) {
             out[s] = si * out[s];
@@ -532,18 +571,6 @@ fn residual_into<const D: usize>(
     r: &mut [SVector<f64, D>],
 ) {
     each(r, |i, ri| *ri = b[i] - pattern.row(i).map(|s| a[s] * x[pattern.column(s)]).sum::<SVector<f64, D>>());
-}
-
-/// The block matrix as a dense matrix.
-fn dense<const D: usize>(pattern: &BlockPattern, a: &[SMatrix<f64, D, D>]) -> DMatrix<f64> {
-    let n = pattern.rows();
-    let mut m = DMatrix::zeros(D * n, D * n);
-    for i in 0..n {
-        for s in pattern.row(i) {
-            m.view_mut((D * i, D * pattern.column(s)), (D, D)).copy_from(&a[s]);
-        }
-    }
-    m
 }
 
 #[cfg(test)]
