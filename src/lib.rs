@@ -13,5 +13,6 @@ pub mod bake;
 pub mod bench;
 pub mod io;
 pub mod mesh;
+pub mod metrics;
 pub mod scene;
 pub mod sim;

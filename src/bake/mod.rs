@@ -6,6 +6,7 @@ pub mod summary;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
 use crate::sim::step::StageTimings;
 use crate::sim::{SimError, Simulator, StepError};
@@ -31,11 +32,25 @@ pub struct FrameRecord {
     pub mean_strain: f64,
     /// Most particle-collider contacts in one of the frame's steps.
     pub contacts: u32,
+    /// Triangle-pair contacts found by the collision pipeline, summed over steps.
+    pub triangle_contacts: u32,
+    /// Elementary collision tests run, summed over steps.
+    pub collision_tests: u64,
+    /// The tests the same pairs would need without representative triangles.
+    pub collision_tests_without_ownership: u64,
+    /// Steps that needed rigid impact zones.
+    pub impact_zone_steps: u32,
+    /// Crossings the collision pipeline left unresolved, summed over steps.
+    pub unresolved_crossings: u32,
+    /// What the independent checker found at the end of the frame.
+    pub intersections: Intersections,
 }
 
-/// Runs a scene one frame at a time.
+/// Runs a scene one frame at a time, checking every frame with the
+/// independent intersection checker.
 pub struct Baker {
     sim: Simulator,
+    checker: Checker,
     steps_per_frame: u32,
     step_s: f64,
     frame: usize,
@@ -63,12 +78,9 @@ pub enum BakeError {
 impl Baker {
     /// A baker at frame 0 of `scene`.
     pub fn new(scene: &Scene) -> Result<Self, BakeError> {
-        Ok(Baker {
-            sim: scene.simulator()?,
-            steps_per_frame: scene.steps_per_frame,
-            step_s: scene.step_duration(),
-            frame: 0,
-        })
+        let sim = scene.simulator()?;
+        let checker = Checker::new(sim.cloth().triangles.clone(), &scene.colliders, &scene.mesh_colliders);
+        Ok(Baker { sim, checker, steps_per_frame: scene.steps_per_frame, step_s: scene.step_duration(), frame: 0 })
     }
 
     /// The simulation in its current state.
@@ -93,8 +105,15 @@ impl Baker {
             record.contacts = record.contacts.max(step.contacts);
             record.max_strain = step.max_strain;
             record.mean_strain = step.mean_strain;
+            let c = &step.collision;
+            record.triangle_contacts += c.contacts;
+            record.collision_tests += c.tests;
+            record.collision_tests_without_ownership += c.tests_without_ownership;
+            record.impact_zone_steps += u32::from(c.zone_rounds > 0);
+            record.unresolved_crossings += c.unresolved;
         }
         record.time_s = self.sim.time();
+        record.intersections = self.checker.check(self.sim.positions(), record.time_s);
         self.frame = frame;
         Ok(record)
     }
@@ -110,7 +129,8 @@ pub fn run(
     mut on_frame: impl FnMut(&Simulator, &FrameRecord) -> Result<(), BakeError>,
 ) -> Result<(Vec<FrameRecord>, Option<BakeError>), BakeError> {
     let mut baker = Baker::new(scene)?;
-    on_frame(baker.simulator(), &FrameRecord::default())?;
+    let initial = baker.checker.check(baker.simulator().positions(), 0.0);
+    on_frame(baker.simulator(), &FrameRecord { intersections: initial, ..Default::default() })?;
     let mut records = Vec::with_capacity(frames);
     while baker.frame() < frames && !cancel.load(Ordering::Relaxed) {
         match baker.advance() {

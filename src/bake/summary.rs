@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::FrameRecord;
+use crate::metrics::intersections::Intersections;
 use crate::scene::Scene;
 use crate::sim::step::StageTimings;
 
@@ -56,6 +57,18 @@ pub struct BakeSummary {
     pub mean_strain_last: f64,
     /// Most particle-collider contacts in a step.
     pub contacts_max: u32,
+    /// Intersecting triangle pairs (cloth-cloth and cloth-collider) found by the
+    /// independent checker, summed over every frame end. Zero is the promise.
+    pub intersections_total: u32,
+    /// Cloth vertices found inside a collider, summed over every frame end.
+    pub penetrations_total: u32,
+    /// Elementary collision tests run.
+    pub collision_tests: u64,
+    /// Elementary collision tests the same pairs would need without
+    /// representative triangles.
+    pub collision_tests_without_ownership: u64,
+    /// Steps that needed rigid impact zones.
+    pub impact_zone_steps: u32,
     /// Per-garment outputs.
     pub garments: Vec<GarmentOutput>,
     /// Per simulated frame.
@@ -88,6 +101,10 @@ pub struct FrameRow {
     pub mean_strain: f64,
     /// Most contacts in a step.
     pub contacts: u32,
+    /// Triangle-pair contacts found, summed over the frame's steps.
+    pub triangle_contacts: u32,
+    /// What the independent checker found at the frame end.
+    pub intersections: Intersections,
 }
 
 /// Median of `values` (0 for none).
@@ -139,6 +156,11 @@ impl BakeSummary {
             max_strain_frame: worst.map_or(0, |r| r.frame),
             mean_strain_last: records.last().map_or(0.0, |r| r.mean_strain),
             contacts_max: records.iter().map(|r| r.contacts).max().unwrap_or(0),
+            intersections_total: records.iter().map(|r| r.intersections.pairs()).sum(),
+            penetrations_total: records.iter().map(|r| r.intersections.penetrating_vertices).sum(),
+            collision_tests: records.iter().map(|r| r.collision_tests).sum(),
+            collision_tests_without_ownership: records.iter().map(|r| r.collision_tests_without_ownership).sum(),
+            impact_zone_steps: records.iter().map(|r| r.impact_zone_steps).sum(),
             garments: scene
                 .garments
                 .iter()
@@ -157,6 +179,8 @@ impl BakeSummary {
                     max_strain: r.max_strain,
                     mean_strain: r.mean_strain,
                     contacts: r.contacts,
+                    triangle_contacts: r.triangle_contacts,
+                    intersections: r.intersections,
                 })
                 .collect(),
         }

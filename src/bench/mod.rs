@@ -64,18 +64,26 @@ pub fn measure(scene: &Scene, frames: Option<usize>) -> Result<BakeSummary, Bake
     Ok(BakeSummary::new(scene, &records, frames, None))
 }
 
-const STAGES: [&str; 5] = ["springs", "assembly", "solve", "collisions", "finish"];
+/// Names of the step's stages, in pipeline order.
+fn stage_names() -> impl Iterator<Item = &'static str> {
+    crate::sim::step::StageTimings::default().stages().into_iter().map(|(name, _)| name)
+}
 
 /// The results as a Markdown table.
 pub fn markdown_table(results: &[BenchResult]) -> String {
-    let mut out = String::from(
-        "| case | vertices | threads | ms/frame (median) | springs | assembly | solve | collisions | finish | CG it/step | max strain |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
-    );
+    let mut out = String::from("| case | vertices | threads | ms/frame (median) |");
+    for stage in stage_names() {
+        let _ = write!(out, " {stage} |");
+    }
+    out += " CG it/step | max strain |\n|---|---:|---:|---:|";
+    for _ in stage_names() {
+        out += "---:|";
+    }
+    out += "---:|---:|\n";
     for r in results {
         let s = &r.summary;
         let _ = write!(out, "| {} | {} | {} | {:.2} |", r.case, s.vertices, s.threads, s.ms_per_frame_median);
-        for stage in STAGES {
+        for stage in stage_names() {
             let _ = write!(out, " {:.2} |", s.stage_ms_per_frame_median.get(stage).copied().unwrap_or(0.0));
         }
         let _ = writeln!(out, " {:.1} | {:.3} % |", s.cg_iterations_per_step_mean, s.max_strain * 100.0);
@@ -86,7 +94,7 @@ pub fn markdown_table(results: &[BenchResult]) -> String {
 /// The results as CSV, one row per case.
 pub fn csv(results: &[BenchResult]) -> String {
     let mut out = String::from("case,vertices,threads,frames,steps_per_frame,ms_per_frame_median");
-    for stage in STAGES {
+    for stage in stage_names() {
         let _ = write!(out, ",{stage}_ms");
     }
     out += ",cg_iterations_per_step,max_strain,contacts_max\n";
@@ -97,7 +105,7 @@ pub fn csv(results: &[BenchResult]) -> String {
             "{},{},{},{},{},{:.4}",
             r.case, s.vertices, s.threads, s.frames, s.steps_per_frame, s.ms_per_frame_median
         );
-        for stage in STAGES {
+        for stage in stage_names() {
             let _ = write!(out, ",{:.4}", s.stage_ms_per_frame_median.get(stage).copied().unwrap_or(0.0));
         }
         let _ = writeln!(out, ",{:.2},{:.6},{}", s.cg_iterations_per_step_mean, s.max_strain, s.contacts_max);

@@ -29,6 +29,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
+use crate::sim::collision::CollisionSettings as PipelineSettings;
 use crate::sim::motion::MotionSpec;
 use crate::sim::pcg::PreconditionerKind;
 
@@ -110,16 +111,77 @@ impl Default for SolverSettings {
     }
 }
 
-/// Scene-wide collision settings; each overrides the garments' fabric values.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// Scene-wide collision settings (PAPER Fig. 10c). Thickness and friction
+/// override the garments' fabric values; the rest tune the collision pipeline.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CollisionSettings {
-    /// Distance the cloth keeps from colliders, m.
+    /// Distance the cloth keeps from colliders and from itself, m.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thickness_m: Option<f64>,
-    /// Friction coefficient between cloth and colliders.
+    /// Friction coefficient between cloth and colliders and between layers.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
+    /// Detect → respond passes per step before impact zones take over.
+    #[serde(default = "default_passes")]
+    pub passes: u32,
+    /// Decay factor `a` of a contact's influence when it is not seen again
+    /// (eq. 16), 0 < a < 1.
+    #[serde(default = "default_decay")]
+    pub influence_decay: f64,
+    /// Influence at which a contact joins the constraint set solved together.
+    #[serde(default = "default_threshold")]
+    pub influence_threshold: f64,
+    /// Sweeps over the constraint set per pass.
+    #[serde(default = "default_sweeps")]
+    pub constraint_sweeps: u32,
+    /// Rounds of rigid impact zones before a step gives up.
+    #[serde(default = "default_zone_rounds")]
+    pub zone_rounds: u32,
+}
+
+fn default_passes() -> u32 {
+    PipelineSettings::default().passes
+}
+fn default_decay() -> f64 {
+    PipelineSettings::default().influence_decay
+}
+fn default_threshold() -> f64 {
+    PipelineSettings::default().influence_threshold
+}
+fn default_sweeps() -> u32 {
+    PipelineSettings::default().constraint_sweeps
+}
+fn default_zone_rounds() -> u32 {
+    PipelineSettings::default().zone_rounds
+}
+
+impl Default for CollisionSettings {
+    fn default() -> Self {
+        let p = PipelineSettings::default();
+        CollisionSettings {
+            thickness_m: None,
+            friction: None,
+            passes: p.passes,
+            influence_decay: p.influence_decay,
+            influence_threshold: p.influence_threshold,
+            constraint_sweeps: p.constraint_sweeps,
+            zone_rounds: p.zone_rounds,
+        }
+    }
+}
+
+impl CollisionSettings {
+    /// The pipeline's constants.
+    pub fn pipeline(&self) -> PipelineSettings {
+        PipelineSettings {
+            passes: self.passes,
+            influence_decay: self.influence_decay,
+            influence_threshold: self.influence_threshold,
+            constraint_sweeps: self.constraint_sweeps,
+            zone_rounds: self.zone_rounds,
+        }
+    }
 }
 
 /// One cloth.
@@ -144,9 +206,16 @@ pub struct GarmentSpec {
     /// Uniform scale applied first (e.g. 0.01 for a mesh in centimetres).
     #[serde(default = "default_scale")]
     pub scale: f64,
+    /// Whether the garment collides with itself (folds, layers).
+    #[serde(default = "default_self_collision")]
+    pub self_collision: bool,
     /// Held vertices.
     #[serde(default, rename = "pin", skip_serializing_if = "Vec::is_empty")]
     pub pins: Vec<PinSpec>,
+}
+
+fn default_self_collision() -> bool {
+    true
 }
 
 fn default_scale() -> f64 {
@@ -264,5 +333,14 @@ pub enum ShapeSpec {
         side_m: f64,
         /// Height, m.
         height_m: f64,
+    },
+    /// A rigid triangle mesh from an OBJ file (relative to the scene file),
+    /// placed by the collider's position and rotation.
+    Mesh {
+        /// OBJ file.
+        obj: PathBuf,
+        /// Uniform scale applied first (e.g. 0.01 for centimetres).
+        #[serde(default = "default_scale")]
+        scale: f64,
     },
 }

@@ -16,9 +16,12 @@ use crate::mesh::validate::MeshReport;
 use crate::mesh::{TriMesh, generate};
 use crate::sim::cloth::Cloth;
 use crate::sim::colliders::{Collider, Shape};
+use crate::sim::collision::CollisionSettings;
+use crate::sim::collision::obstacles::MeshCollider;
 use crate::sim::fabric::Fabric;
-use crate::sim::motion::RigidMotion;
+use crate::sim::motion::{Placement, RigidMotion};
 use crate::sim::pcg::PcgSettings;
+use crate::sim::step::Settings;
 use crate::sim::{Pin, SimError, Simulator};
 
 /// Largest grid or tube resolution a scene may ask for (vertices per side).
@@ -44,8 +47,12 @@ pub struct Scene {
     pub solver: PcgSettings,
     /// The cloths.
     pub garments: Vec<Garment>,
-    /// The obstacles.
+    /// The analytic obstacles.
     pub colliders: Vec<Collider>,
+    /// The triangle-mesh obstacles.
+    pub mesh_colliders: Vec<MeshCollider>,
+    /// The collision pipeline's constants.
+    pub collision: CollisionSettings,
 }
 
 /// One cloth of a scene.
@@ -65,6 +72,8 @@ pub struct Garment {
     pub warnings: Vec<String>,
     /// Pins, by vertex index within this garment.
     pub pins: Vec<Pin>,
+    /// Whether it collides with itself.
+    pub self_collision: bool,
     /// Where the mesh came from, for reports.
     pub origin: String,
 }
@@ -177,7 +186,12 @@ impl Scene {
             pins.extend(garment.pins.iter().map(|p| Pin { vertex: p.vertex + offset, motion: p.motion }));
             offset += garment.mesh.vertex_count() as u32;
         }
-        Simulator::new(self.cloth(), pins, self.colliders.clone(), self.solver)
+        let settings = Settings {
+            solver: self.solver,
+            collision: self.collision.clone(),
+            self_collision: self.garments.iter().map(|g| g.self_collision).collect(),
+        };
+        Simulator::new(self.cloth(), pins, self.colliders.clone(), self.mesh_colliders.clone(), settings)
     }
 }
 
@@ -229,7 +243,14 @@ impl Resolver<'_> {
                 return Err(self.invalid(format!("garment '{}'", g.name), "two garments have this name"));
             }
         }
-        let colliders = file.colliders.iter().map(|c| self.collider(c)).collect::<Result<Vec<_>, _>>()?;
+        let (mut colliders, mut mesh_colliders) = (Vec::new(), Vec::new());
+        for spec in &file.colliders {
+            match self.collider(spec)? {
+                SceneCollider::Analytic(c) => colliders.push(c),
+                SceneCollider::Mesh(m) => mesh_colliders.push(m),
+            }
+        }
+        let collision = self.collision(&file.collision)?;
         let fps = file.time.fps;
         let steps_per_frame = solver.steps_per_frame.unwrap_or_else(|| {
             let finest = garments.iter().map(|g| g.fabric.time_step_s).fold(f64::INFINITY, f64::min);
@@ -248,6 +269,8 @@ impl Resolver<'_> {
             },
             garments,
             colliders,
+            mesh_colliders,
+            collision,
             file,
         })
     }
@@ -302,6 +325,7 @@ impl Resolver<'_> {
             report,
             warnings,
             pins,
+            self_collision: spec.self_collision,
             origin,
         })
     }
@@ -397,11 +421,48 @@ impl Resolver<'_> {
         Ok(())
     }
 
-    fn collider(&self, spec: &ColliderSpec) -> Result<Collider, SceneError> {
+    fn collider(&self, spec: &ColliderSpec) -> Result<SceneCollider, SceneError> {
         let what = format!("collider '{}'", spec.name);
+        for v in spec.position_m.iter().chain(&spec.rotation_deg) {
+            self.check(&format!("{what}: pose"), *v, |_| true, "finite numbers")?;
+        }
+        if let Some(mu) = spec.friction {
+            self.check(&format!("{what}: friction"), mu, |m| (0.0..=10.0).contains(&m), "0 ≤ friction ≤ 10")?;
+        }
+        if let Some(motion) = &spec.motion {
+            self.motion(motion, &what)?;
+        }
+        let position = Vector3::from(spec.position_m);
+        let placement = Placement {
+            rest_pose: Isometry3::from_parts(Translation3::from(position), rotation(spec.rotation_deg)),
+            motion: spec.motion.as_ref().map(|m| RigidMotion::from_spec(m, position)),
+        };
+        let (name, friction) = (spec.name.clone(), spec.friction);
+        if let ShapeSpec::Mesh { obj, scale } = &spec.shape {
+            self.check(&format!("{what}: scale"), *scale, |s| s > 0.0, "a positive factor")?;
+            let path = self.base_dir.join(obj);
+            let obj = read_obj(&path).map_err(|source| SceneError::Obj {
+                origin: self.origin.to_owned(),
+                garment: format!("collider {name}"),
+                source,
+            })?;
+            let vertices = obj.mesh.positions.iter().map(|p| p * *scale).collect();
+            return Ok(SceneCollider::Mesh(MeshCollider {
+                name,
+                vertices,
+                triangles: obj.mesh.triangles,
+                placement,
+                friction,
+            }));
+        }
+        Ok(SceneCollider::Analytic(Collider { name, shape: self.shape(&spec.shape, &what)?, placement, friction }))
+    }
+
+    /// An analytic shape with every dimension checked.
+    fn shape(&self, spec: &ShapeSpec, what: &str) -> Result<Shape, SceneError> {
         let length =
             |v: f64, name: &str| self.check(&format!("{what}: {name}"), v, |v| v > 0.0, "a positive length in m");
-        let shape = match &spec.shape {
+        Ok(match spec {
             ShapeSpec::Plane => Shape::Plane,
             ShapeSpec::Sphere { radius_m } => {
                 length(*radius_m, "radius_m")?;
@@ -428,25 +489,28 @@ impl Resolver<'_> {
                 length(*height_m, "height_m")?;
                 Shape::Prism { side: *side_m, half_height: height_m / 2.0 }
             }
-        };
-        for v in spec.position_m.iter().chain(&spec.rotation_deg) {
-            self.check(&format!("{what}: pose"), *v, |_| true, "finite numbers")?;
-        }
-        if let Some(mu) = spec.friction {
-            self.check(&format!("{what}: friction"), mu, |m| (0.0..=10.0).contains(&m), "0 ≤ friction ≤ 10")?;
-        }
-        if let Some(motion) = &spec.motion {
-            self.motion(motion, &what)?;
-        }
-        let position = Vector3::from(spec.position_m);
-        Ok(Collider {
-            name: spec.name.clone(),
-            shape,
-            rest_pose: Isometry3::from_parts(Translation3::from(position), rotation(spec.rotation_deg)),
-            motion: spec.motion.as_ref().map(|m| RigidMotion::from_spec(m, position)),
-            friction: spec.friction,
+            ShapeSpec::Mesh { .. } => return Err(self.invalid(what, "a mesh is not an analytic shape")),
         })
     }
+
+    fn collision(&self, c: &file::CollisionSettings) -> Result<CollisionSettings, SceneError> {
+        let what = |field: &str| format!("collision.{field}");
+        if c.passes == 0 {
+            return Err(self.invalid(what("passes"), "must be at least 1"));
+        }
+        if c.zone_rounds == 0 {
+            return Err(self.invalid(what("zone_rounds"), "must be at least 1"));
+        }
+        self.check(&what("influence_decay"), c.influence_decay, |a| a > 0.0 && a < 1.0, "0 < a < 1")?;
+        self.check(&what("influence_threshold"), c.influence_threshold, |t| t > 0.0, "a positive influence")?;
+        Ok(c.pipeline())
+    }
+}
+
+/// A resolved collider: analytic or a triangle mesh.
+enum SceneCollider {
+    Analytic(Collider),
+    Mesh(MeshCollider),
 }
 
 /// Rotation about X, then Y, then Z (fixed axes), from degrees.

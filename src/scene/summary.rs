@@ -53,6 +53,7 @@ pub fn summary(scene: &Scene) -> String {
             f.thickness_m * 1e3,
             f.friction
         );
+        let _ = writeln!(out, "  self-collision: {}", if garment.self_collision { "on" } else { "off" });
         let moving = garment.pins.iter().filter(|p| p.motion.is_some()).count();
         let _ = writeln!(out, "  pins: {} vertices ({} moving)", garment.pins.len(), moving);
         let _ = writeln!(out, "  mesh: {}", garment.report);
@@ -61,13 +62,27 @@ pub fn summary(scene: &Scene) -> String {
         }
     }
     for c in &scene.colliders {
-        let p = c.rest_pose.translation.vector;
-        let motion = if c.motion.is_some() { "kinematic" } else { "static" };
+        let p = c.placement.rest_pose.translation.vector;
+        let motion = if c.placement.motion.is_some() { "kinematic" } else { "static" };
         let _ = writeln!(
             out,
             "collider '{}': {} at ({:.3}, {:.3}, {:.3}), {motion}",
             c.name,
             describe(&c.shape),
+            p.x,
+            p.y,
+            p.z
+        );
+    }
+    for m in &scene.mesh_colliders {
+        let p = m.placement.rest_pose.translation.vector;
+        let motion = if m.placement.motion.is_some() { "kinematic" } else { "static" };
+        let _ = writeln!(
+            out,
+            "collider '{}': triangle mesh, {} vertices, {} triangles, at ({:.3}, {:.3}, {:.3}), {motion}",
+            m.name,
+            m.vertices.len(),
+            m.triangles.len(),
             p.x,
             p.y,
             p.z

@@ -70,6 +70,10 @@ pub struct Cloth {
     pub hinge_vertices: Vec<[u32; 4]>,
     /// Hinges: bending weights (1/m), see [`hinge_weights`].
     pub hinge_weights: Vec<[f64; 4]>,
+    /// Triangles of every garment, in particle indices.
+    pub triangles: Vec<[u32; 3]>,
+    /// Garment of each triangle.
+    pub triangle_garment: Vec<u32>,
     /// Garments, in input order.
     pub garments: Vec<GarmentRange>,
     /// Garment index of each particle.
@@ -88,6 +92,8 @@ impl Cloth {
             spring_area_ratio: Vec::new(),
             hinge_vertices: Vec::new(),
             hinge_weights: Vec::new(),
+            triangles: Vec::new(),
+            triangle_garment: Vec::new(),
             garments: Vec::new(),
             garment_of_vertex: Vec::new(),
         };
@@ -138,6 +144,8 @@ impl Cloth {
         let areas: Vec<f64> = (0..mesh.triangles.len()).map(|t| mesh.triangle_area(t)).collect();
         let topology = Topology::new(&mesh.triangles);
         self.rest_positions.extend_from_slice(&mesh.positions);
+        self.triangles.extend(mesh.triangles.iter().map(|t| t.map(|v| v + offset)));
+        self.triangle_garment.extend(std::iter::repeat_n(garment, mesh.triangles.len()));
         self.mass.extend(lumped_masses(mesh, &areas, &fabric));
         self.garment_of_vertex.extend(std::iter::repeat_n(garment, mesh.vertex_count()));
 

@@ -10,7 +10,7 @@
 
 use nalgebra::{Isometry3, Vector2, Vector3};
 
-use super::motion::RigidMotion;
+use super::motion::Placement;
 
 /// Iteration cap of the conservative advancement; a path still approaching at
 /// the cap is treated as touching (a grazing contact within the tolerance band).
@@ -184,10 +184,8 @@ pub struct Collider {
     pub name: String,
     /// The solid, in its local frame.
     pub shape: Shape,
-    /// `world_from_local` at time 0.
-    pub rest_pose: Isometry3<f64>,
-    /// Prescribed motion, if kinematic.
-    pub motion: Option<RigidMotion>,
+    /// Where it is and how it moves.
+    pub placement: Placement,
     /// Friction coefficient overriding the fabric's, unitless.
     pub friction: Option<f64>,
 }
@@ -195,15 +193,12 @@ pub struct Collider {
 impl Collider {
     /// `world_from_local` at time `t` s.
     pub fn world_from_local(&self, t: f64) -> Isometry3<f64> {
-        match &self.motion {
-            Some(m) => m.world_from_rest(t) * self.rest_pose,
-            None => self.rest_pose,
-        }
+        self.placement.world_from_local(t)
     }
 
     /// Velocity of the collider's surface at world point `p` at time `t`, m/s.
     pub fn surface_velocity(&self, p: &Vector3<f64>, t: f64) -> Vector3<f64> {
-        self.motion.as_ref().map_or_else(Vector3::zeros, |m| m.velocity_at(p, t))
+        self.placement.velocity_at(p, t)
     }
 
     /// Signed distance of world point `p` at time `t`, m (negative inside).
@@ -216,6 +211,7 @@ impl Collider {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::motion::RigidMotion;
     use parry3d::query::PointQuery;
     use proptest::prelude::*;
 
@@ -315,8 +311,7 @@ mod tests {
         let ball = Collider {
             name: "projectile".into(),
             shape: Shape::Sphere { radius: 0.1 },
-            rest_pose: Isometry3::translation(0.0, 0.0, 1.0),
-            motion: Some(motion),
+            placement: Placement { rest_pose: Isometry3::translation(0.0, 0.0, 1.0), motion: Some(motion) },
             friction: None,
         };
         assert!((ball.signed_distance_at(&Vector3::zeros(), 0.125) + 0.1).abs() < 1e-12);

@@ -229,15 +229,14 @@ impl SurfaceContact {
 mod tests {
     use super::*;
     use crate::sim::colliders::Shape;
-    use crate::sim::motion::{MotionSpec, RigidMotion};
+    use crate::sim::motion::{MotionSpec, Placement, RigidMotion};
     use nalgebra::Isometry3;
 
     fn ground() -> Collider {
         Collider {
             name: "ground".into(),
             shape: Shape::Plane,
-            rest_pose: Isometry3::identity(),
-            motion: None,
+            placement: Placement { rest_pose: Isometry3::identity(), motion: None },
             friction: None,
         }
     }
@@ -296,8 +295,7 @@ mod tests {
         let ball = Collider {
             name: "projectile".into(),
             shape: Shape::Sphere { radius: 0.1 },
-            rest_pose: Isometry3::translation(0.0, 0.0, 0.2),
-            motion: Some(motion),
+            placement: Placement { rest_pose: Isometry3::translation(0.0, 0.0, 0.2), motion: Some(motion) },
             friction: Some(0.0),
         };
         let window = StepWindow { t0: 0.0, t1: 1.0 / 30.0 };
@@ -319,8 +317,7 @@ mod tests {
         let ball = Collider {
             name: "ball".into(),
             shape: Shape::Sphere { radius: 0.3 },
-            rest_pose: Isometry3::identity(),
-            motion: Some(spin),
+            placement: Placement { rest_pose: Isometry3::identity(), motion: Some(spin) },
             friction: None,
         };
         // A particle resting on the sphere's equator, pressed in by gravity.
@@ -371,8 +368,7 @@ mod tests {
         let ball = Collider {
             name: "ball".into(),
             shape: crate::sim::colliders::Shape::Sphere { radius: 0.3 },
-            rest_pose: Isometry3::identity(),
-            motion: None,
+            placement: Placement { rest_pose: Isometry3::identity(), motion: None },
             friction: None,
         };
         let start = Vector3::new(0.3015, 0.05, 0.0);

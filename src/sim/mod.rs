@@ -8,6 +8,7 @@
 
 pub mod cloth;
 pub mod colliders;
+pub mod collision;
 pub mod contact;
 pub mod fabric;
 pub mod forces;

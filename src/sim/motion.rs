@@ -84,6 +84,30 @@ impl RigidMotion {
     }
 }
 
+/// Where a rigid object is at time 0 and how it moves from there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    /// `world_from_local` at time 0.
+    pub rest_pose: Isometry3<f64>,
+    /// Prescribed motion, if kinematic.
+    pub motion: Option<RigidMotion>,
+}
+
+impl Placement {
+    /// `world_from_local` at time `t` s.
+    pub fn world_from_local(&self, t: f64) -> Isometry3<f64> {
+        match &self.motion {
+            Some(m) => m.world_from_rest(t) * self.rest_pose,
+            None => self.rest_pose,
+        }
+    }
+
+    /// Velocity at time `t` of the material point at world point `p`, m/s.
+    pub fn velocity_at(&self, p: &Vector3<f64>, t: f64) -> Vector3<f64> {
+        self.motion.as_ref().map_or_else(Vector3::zeros, |m| m.velocity_at(p, t))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -641,7 +641,7 @@ mod tests {
             PcgSettings { tolerance: 1e-6, max_iterations: 5000, preconditioner: PreconditionerKind::Multigrid };
         let mut multigrid = Multigrid::new(pattern, edges);
         multigrid.prepare(a, &constraints, points);
-        let mut run = |p: Preconditioning| {
+        let run = |p: Preconditioning| {
             let mut x = vec![Vector3::zeros(); n];
             let report = solve(pattern, a, &b, &b, &constraints, &mut x, settings, p, &mut PcgWorkspace::default());
             assert!(report.converged, "{report:?}");

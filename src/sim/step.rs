@@ -27,11 +27,14 @@ use rayon::prelude::*;
 
 use super::cloth::{Cloth, SpringKind};
 use super::colliders::Collider;
+use super::collision::obstacles::{MeshCollider, Obstacles};
+use super::collision::{ClothState, CollisionPipeline, CollisionReport, CollisionSettings, ParticleCollision};
 use super::contact::{ParticleSurface, StepWindow, SurfaceContact, resolve_particle};
 use super::implicit::{
     AssemblyInput, ParticleCoefficients, SpringCoefficients, SystemBuffers, SystemLayout, assemble, evaluate_springs,
     net_forces,
 };
+use super::motion::Placement;
 use super::motion::RigidMotion;
 use super::multigrid::Multigrid;
 use super::parallel::{self, CHUNK};
@@ -95,38 +98,59 @@ pub struct StageTimings {
     pub springs: Duration,
     /// Matrix and right-hand side.
     pub assembly: Duration,
-    /// Linear solve.
+    /// Linear solves (with contact passes).
     pub solve: Duration,
-    /// Collision detection and response.
-    pub collisions: Duration,
+    /// Particles against analytic colliders.
+    pub contacts: Duration,
+    /// Collision hierarchy refits.
+    pub refit: Duration,
+    /// Collision broad phase.
+    pub broad: Duration,
+    /// Collision narrow phase.
+    pub narrow: Duration,
+    /// Collision response (impulses, constraint set, impact zones).
+    pub response: Duration,
     /// Pins, checks, commit, strain.
     pub finish: Duration,
 }
 
 impl StageTimings {
-    /// Sum of all stages.
-    pub fn total(&self) -> Duration {
-        self.springs + self.assembly + self.solve + self.collisions + self.finish
-    }
-
-    /// Stage-wise sum.
-    pub fn add(&mut self, other: &StageTimings) {
-        self.springs += other.springs;
-        self.assembly += other.assembly;
-        self.solve += other.solve;
-        self.collisions += other.collisions;
-        self.finish += other.finish;
-    }
-
     /// Stage names and durations, in pipeline order.
-    pub fn stages(&self) -> [(&'static str, Duration); 5] {
+    pub fn stages(&self) -> [(&'static str, Duration); 9] {
         [
             ("springs", self.springs),
             ("assembly", self.assembly),
             ("solve", self.solve),
-            ("collisions", self.collisions),
+            ("contacts", self.contacts),
+            ("refit", self.refit),
+            ("broad", self.broad),
+            ("narrow", self.narrow),
+            ("response", self.response),
             ("finish", self.finish),
         ]
+    }
+
+    /// Sum of all stages.
+    pub fn total(&self) -> Duration {
+        self.stages().iter().map(|(_, d)| *d).sum()
+    }
+
+    /// Stage-wise sum.
+    pub fn add(&mut self, other: &StageTimings) {
+        let fields = [
+            (&mut self.springs, other.springs),
+            (&mut self.assembly, other.assembly),
+            (&mut self.solve, other.solve),
+            (&mut self.contacts, other.contacts),
+            (&mut self.refit, other.refit),
+            (&mut self.broad, other.broad),
+            (&mut self.narrow, other.narrow),
+            (&mut self.response, other.response),
+            (&mut self.finish, other.finish),
+        ];
+        for (mine, theirs) in fields {
+            *mine += theirs;
+        }
     }
 }
 
@@ -148,6 +172,49 @@ pub struct StepReport {
     /// Linear solves run (one, plus one per detect → respond pass that found
     /// new contacts).
     pub solves: u32,
+    /// Triangle collisions (self, meshes, sharp features).
+    pub collision: CollisionReport,
+}
+
+/// How a simulation is solved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// The linear solver.
+    pub solver: PcgSettings,
+    /// The collision pipeline's constants.
+    pub collision: CollisionSettings,
+    /// Per garment, whether it collides with itself.
+    pub self_collision: Vec<bool>,
+}
+
+/// The triangle-collision pipeline of `cloth`, if the scene needs one.
+fn collision_pipeline(
+    cloth: &Cloth,
+    pins: &[Pin],
+    colliders: &[Collider],
+    meshes: &[MeshCollider],
+    settings: &Settings,
+) -> Option<CollisionPipeline> {
+    let mut particles: Vec<ParticleCollision> = (0..cloth.vertex_count())
+        .map(|i| {
+            let f = cloth.fabric_of(i);
+            ParticleCollision { thickness: f.thickness_m, friction: f.friction, pinned: None }
+        })
+        .collect();
+    for pin in pins {
+        let placement = Placement { rest_pose: nalgebra::Isometry3::identity(), motion: pin.motion };
+        particles[pin.vertex as usize].pinned = Some(placement);
+    }
+    let self_collision =
+        (0..cloth.garments.len()).map(|g| settings.self_collision.get(g).copied().unwrap_or(true)).collect();
+    CollisionPipeline::new(
+        cloth.triangles.clone(),
+        cloth.triangle_garment.clone(),
+        self_collision,
+        particles,
+        Obstacles::new(colliders, meshes),
+        settings.collision.clone(),
+    )
 }
 
 /// Reusable buffers of a step.
@@ -187,6 +254,7 @@ pub struct Simulator {
     colliders: Vec<Collider>,
     settings: PcgSettings,
     multigrid: Option<Multigrid>,
+    collision: Option<CollisionPipeline>,
     x: Vec<Vector3<f64>>,
     v: Vec<Vector3<f64>>,
     time: f64,
@@ -194,12 +262,14 @@ pub struct Simulator {
 }
 
 impl Simulator {
-    /// A simulator at rest in the cloth's rest shape at time 0.
+    /// A simulator at rest in the cloth's rest shape at time 0, with analytic
+    /// `colliders` and triangle-mesh colliders `meshes`.
     pub fn new(
         cloth: Cloth,
         pins: Vec<Pin>,
         colliders: Vec<Collider>,
-        settings: PcgSettings,
+        meshes: Vec<MeshCollider>,
+        settings: Settings,
     ) -> Result<Self, SimError> {
         let n = cloth.vertex_count();
         if n == 0 {
@@ -222,11 +292,13 @@ impl Simulator {
             .filter(|&s| cloth.spring_kind[s as usize] == SpringKind::Stretch)
             .collect();
         let layout = SystemLayout::new(&cloth);
-        let multigrid = (settings.preconditioner == PreconditionerKind::Multigrid)
+        let multigrid = (settings.solver.preconditioner == PreconditionerKind::Multigrid)
             .then(|| Multigrid::new(&layout.pattern, &cloth.spring_ends));
+        let collision = collision_pipeline(&cloth, &pins, &colliders, &meshes, &settings);
         Ok(Simulator {
             layout,
             multigrid,
+            collision,
             particles: ParticleCoefficients::new(&cloth),
             springs: SpringCoefficients::new(&cloth),
             surfaces,
@@ -238,7 +310,7 @@ impl Simulator {
             released: vec![false; n],
             normal_force: vec![0.0; n],
             colliders,
-            settings,
+            settings: settings.solver,
             x: cloth.rest_positions.clone(),
             v: vec![Vector3::zeros(); n],
             time: 0.0,
@@ -356,7 +428,23 @@ impl Simulator {
         report.timings.solve = lap();
 
         report.contacts = self.integrate_and_collide(window);
-        report.timings.collisions = lap();
+        report.timings.contacts = lap();
+        if let Some(pipeline) = &mut self.collision {
+            let cloth = ClothState {
+                start: &self.x,
+                end: &mut self.ws.next_x,
+                velocity: &mut self.ws.next_v,
+                mass: &self.particles.mass,
+            };
+            report.collision = pipeline.resolve(cloth, window);
+            let c = &report.collision;
+            report.timings.refit = c.refit;
+            report.timings.broad = c.broad;
+            report.timings.narrow = c.narrow;
+            report.timings.response = c.response;
+            self.collide_with_colliders(window);
+            lap();
+        }
 
         for k in 0..self.pins.len() {
             let i = self.pins[k].vertex as usize;
@@ -479,16 +567,30 @@ impl Simulator {
     }
 
     /// `v ← v + Δv`, `x ← x + h v` into the next-state buffers, then each free
-    /// particle against the colliders, noting which collider it ends resting
-    /// on. Returns the contact count.
+    /// particle against the analytic colliders. Returns the contact count.
     fn integrate_and_collide(&mut self, window: StepWindow) -> u32 {
         let n = self.x.len();
         let ws = &mut self.ws;
         ws.next_x.resize(n, Vector3::zeros());
         ws.next_v.resize(n, Vector3::zeros());
+        let (x, v, dv) = (&self.x, &self.v, &ws.velocity_change);
+        ws.next_x.par_iter_mut().zip(ws.next_v.par_iter_mut()).enumerate().with_min_len(CHUNK).for_each(
+            |(i, (next_x, next_v))| {
+                *next_v = v[i] + dv[i];
+                *next_x = x[i] + *next_v * window.h();
+            },
+        );
+        self.collide_with_colliders(window)
+    }
+
+    /// Each free particle's path from its position to the next-state buffers
+    /// against the analytic colliders, noting which collider it ends resting
+    /// on. Returns the contact count.
+    fn collide_with_colliders(&mut self, window: StepWindow) -> u32 {
+        let n = self.x.len();
+        let ws = &mut self.ws;
         ws.contacts.resize(n, 0);
-        let (x, v, dv, fixed) = (&self.x, &self.v, &ws.velocity_change, &self.fixed);
-        let (colliders, surfaces) = (&self.colliders, &self.surfaces);
+        let (x, fixed, colliders, surfaces) = (&self.x, &self.fixed, &self.colliders, &self.surfaces);
         ws.next_x
             .par_iter_mut()
             .zip(ws.next_v.par_iter_mut())
@@ -496,8 +598,6 @@ impl Simulator {
             .enumerate()
             .with_min_len(CHUNK)
             .for_each(|(i, ((next_x, next_v), (contacts, resting)))| {
-                *next_v = v[i] + dv[i];
-                *next_x = x[i] + *next_v * window.h();
                 (*contacts, *resting) = if fixed[i] {
                     (0, NO_COLLIDER)
                 } else {

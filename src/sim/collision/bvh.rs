@@ -1,0 +1,157 @@
+//! Bounding-volume hierarchy of swept boxes (parry3d's `Bvh`): built once from
+//! a mesh's triangles, refitted every step with each triangle's box over the
+//! whole step, grown by the thickness.
+//!
+//! parry3d works in f32; boxes are rounded outwards when converted, so no pair
+//! that overlaps in f64 is lost.
+
+use nalgebra::Vector3;
+use parry3d::bounding_volume::Aabb;
+use parry3d::math::Vector;
+use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhWorkspace};
+
+/// Steps between incremental re-optimisations of the tree (refitting alone
+/// lets its quality decay as the cloth deforms).
+const OPTIMIZE_EVERY: u32 = 16;
+
+/// An axis-aligned box in f64, m.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Box3 {
+    /// Lower corner.
+    pub min: Vector3<f64>,
+    /// Upper corner.
+    pub max: Vector3<f64>,
+}
+
+impl Box3 {
+    /// The empty box.
+    pub fn empty() -> Self {
+        Box3 { min: Vector3::repeat(f64::INFINITY), max: Vector3::repeat(f64::NEG_INFINITY) }
+    }
+
+    /// This box grown to contain `p`.
+    pub fn with(self, p: &Vector3<f64>) -> Self {
+        Box3 { min: self.min.inf(p), max: self.max.sup(p) }
+    }
+
+    /// This box grown by `margin` on every side.
+    pub fn grown(self, margin: f64) -> Self {
+        Box3 { min: self.min.add_scalar(-margin), max: self.max.add_scalar(margin) }
+    }
+
+    /// The smallest box containing both.
+    pub fn union(self, other: &Box3) -> Self {
+        Box3 { min: self.min.inf(&other.min), max: self.max.sup(&other.max) }
+    }
+
+    /// True when the boxes share a point.
+    pub fn overlaps(&self, other: &Box3) -> bool {
+        (0..3).all(|k| self.min[k] <= other.max[k] && other.min[k] <= self.max[k])
+    }
+
+    /// The f32 box containing this one.
+    fn outward(&self) -> Aabb {
+        let down = |x: f64| {
+            let f = x as f32;
+            if (f as f64) > x { f.next_down() } else { f }
+        };
+        let up = |x: f64| {
+            let f = x as f32;
+            if (f as f64) < x { f.next_up() } else { f }
+        };
+        Aabb::new(
+            Vector::new(down(self.min.x), down(self.min.y), down(self.min.z)),
+            Vector::new(up(self.max.x), up(self.max.y), up(self.max.z)),
+        )
+    }
+}
+
+/// A hierarchy over a fixed set of leaves whose boxes change every step.
+#[derive(Clone)]
+pub struct SweptBvh {
+    bvh: Bvh,
+    workspace: BvhWorkspace,
+    steps: u32,
+}
+
+impl std::fmt::Debug for SweptBvh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SweptBvh").field("leaves", &self.bvh.leaf_count()).field("steps", &self.steps).finish()
+    }
+}
+
+impl SweptBvh {
+    /// A hierarchy over `boxes` (leaf `i` is `boxes[i]`).
+    pub fn new(boxes: &[Box3]) -> Self {
+        let leaves: Vec<Aabb> = boxes.iter().map(Box3::outward).collect();
+        SweptBvh {
+            bvh: Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves),
+            workspace: BvhWorkspace::default(),
+            steps: 0,
+        }
+    }
+
+    /// Replaces every leaf's box and refits the tree.
+    pub fn update(&mut self, boxes: &[Box3]) {
+        for (i, b) in boxes.iter().enumerate() {
+            self.bvh.insert_or_update_partially(b.outward(), i as u32, 0.0);
+        }
+        self.bvh.refit(&mut self.workspace);
+        self.steps += 1;
+        if self.steps % OPTIMIZE_EVERY == 0 {
+            self.bvh.optimize_incremental(&mut self.workspace);
+        }
+    }
+
+    /// Every pair of distinct leaves whose boxes overlap, as `(low, high)`,
+    /// sorted, into `out`.
+    pub fn self_pairs(&mut self, out: &mut Vec<(u32, u32)>) {
+        out.clear();
+        self.bvh.traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| out.push((a.min(b), a.max(b))));
+        out.sort_unstable();
+    }
+
+    /// Leaves whose boxes overlap `query`, sorted, into `out`.
+    pub fn overlapping(&self, query: &Box3, out: &mut Vec<u32>) {
+        out.clear();
+        let aabb = query.outward();
+        out.extend(self.bvh.intersect_aabb(&aabb));
+        out.sort_unstable();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_at(x: f64) -> Box3 {
+        Box3 { min: Vector3::new(x, 0.0, 0.0), max: Vector3::new(x + 1.0, 1.0, 1.0) }
+    }
+
+    #[test]
+    fn pairs_follow_the_boxes_as_they_move() {
+        let mut boxes = vec![unit_at(0.0), unit_at(0.5), unit_at(5.0)];
+        let mut bvh = SweptBvh::new(&boxes);
+        let mut pairs = Vec::new();
+        bvh.self_pairs(&mut pairs);
+        assert_eq!(pairs, vec![(0, 1)]);
+        boxes[2] = unit_at(1.2);
+        bvh.update(&boxes);
+        bvh.self_pairs(&mut pairs);
+        assert_eq!(pairs, vec![(0, 1), (1, 2)]);
+        let mut hits = Vec::new();
+        bvh.overlapping(&Box3 { min: Vector3::new(1.3, 0.5, 0.5), max: Vector3::new(1.4, 0.6, 0.6) }, &mut hits);
+        assert_eq!(hits, vec![1, 2]);
+    }
+
+    #[test]
+    fn f64_boxes_touching_by_a_hair_still_overlap_in_f32() {
+        let a = Box3 { min: Vector3::zeros(), max: Vector3::new(0.1 + 1e-12, 1.0, 1.0) };
+        let b = Box3 { min: Vector3::new(0.1, 0.0, 0.0), max: Vector3::new(1.0, 1.0, 1.0) };
+        assert!(a.overlaps(&b));
+        let mut bvh = SweptBvh::new(&[a, b]);
+        let mut pairs = Vec::new();
+        bvh.self_pairs(&mut pairs);
+        assert_eq!(pairs, vec![(0, 1)]);
+    }
+}

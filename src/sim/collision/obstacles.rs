@@ -1,0 +1,235 @@
+//! What the cloth's triangles collide with besides themselves: the sharp
+//! features of analytic colliders and rigid triangle meshes.
+//!
+//! A cloth *particle* meets an analytic collider through its exact signed
+//! distance ([`crate::sim::contact`]); what that misses is a sharp feature
+//! poking between particles: a needle's tip through the middle of a triangle,
+//! a blade's edge or a box's corner through an edge. Those features (box and
+//! prism edges and corners, cylinder rims, a cone's rim and apex) become
+//! obstacle vertices and edges here, tested against cloth triangles and edges
+//! by continuous collision detection. A thin curved side is a feature too: a
+//! cloth edge of length L can dip L²/8R into a surface of radius R between its
+//! ends (a centimetre into a 3 mm needle), so cylinders and cones also carry
+//! their generator lines, and an edge cannot enter the side without crossing
+//! one. Triangle-mesh colliders contribute all their vertices, edges and
+//! triangles. Every obstacle vertex is stored in its
+//! collider's frame and moves with the collider's pose; obstacles have
+//! infinite mass.
+
+use nalgebra::{Point3, Vector3};
+
+use super::features::Ownership;
+use crate::sim::colliders::{Collider, Shape};
+use crate::sim::contact::StepWindow;
+use crate::sim::motion::Placement;
+
+/// Segments of a rim circle (a needle's or a cylinder's edge), and generator
+/// lines along a cylinder's or cone's side.
+const RIM_SEGMENTS: usize = 24;
+
+/// A rigid triangle mesh that moves like an analytic collider.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshCollider {
+    /// Name from the scene file, for reports.
+    pub name: String,
+    /// Vertex positions in the collider's frame, m.
+    pub vertices: Vec<Vector3<f64>>,
+    /// Triangles.
+    pub triangles: Vec<[u32; 3]>,
+    /// Where it is and how it moves.
+    pub placement: Placement,
+    /// Friction coefficient overriding the fabric's, unitless.
+    pub friction: Option<f64>,
+}
+
+/// An obstacle body: how it moves and how rough it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Body {
+    /// Where it is and how it moves.
+    pub placement: Placement,
+    /// Friction coefficient overriding the fabric's, unitless.
+    pub friction: Option<f64>,
+}
+
+/// All obstacle features in one index space.
+#[derive(Clone, Debug, Default)]
+pub struct Obstacles {
+    /// Per vertex, its body (index into `bodies`).
+    pub vertex_collider: Vec<u32>,
+    /// Per vertex, its position in its collider's frame, m.
+    pub local: Vec<Vector3<f64>>,
+    /// Triangles of mesh colliders.
+    pub triangles: Vec<[u32; 3]>,
+    /// Which triangle owns which vertex and edge (mesh colliders).
+    pub ownership: Ownership,
+    /// Sharp edges of analytic colliders (tested against cloth edges).
+    pub feature_edges: Vec<[u32; 2]>,
+    /// Sharp vertices of analytic colliders (tested against cloth triangles).
+    pub feature_vertices: Vec<u32>,
+    /// The bodies the vertices belong to, analytic colliders first then meshes.
+    pub bodies: Vec<Body>,
+}
+
+impl Obstacles {
+    /// The features of `analytic` colliders and the whole of `meshes`.
+    pub fn new(analytic: &[Collider], meshes: &[MeshCollider]) -> Self {
+        let mut o = Obstacles::default();
+        for collider in analytic {
+            let (points, edges) = sharp_features(&collider.shape);
+            if points.is_empty() {
+                continue;
+            }
+            let index = o.bodies.len() as u32;
+            o.bodies.push(Body { placement: collider.placement, friction: collider.friction });
+            let base = o.local.len() as u32;
+            o.local.extend(points);
+            o.vertex_collider.resize(o.local.len(), index);
+            o.feature_vertices.extend(base..o.local.len() as u32);
+            o.feature_edges.extend(edges.iter().map(|e| e.map(|v| v + base)));
+        }
+        for mesh in meshes {
+            let index = o.bodies.len() as u32;
+            o.bodies.push(Body { placement: mesh.placement, friction: mesh.friction });
+            let base = o.local.len() as u32;
+            o.local.extend_from_slice(&mesh.vertices);
+            o.vertex_collider.resize(o.local.len(), index);
+            o.triangles.extend(mesh.triangles.iter().map(|t| t.map(|v| v + base)));
+        }
+        o.ownership = Ownership::new(&o.triangles, o.local.len());
+        o
+    }
+
+    /// Number of obstacle vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.local.len()
+    }
+
+    /// True when there is nothing to collide with.
+    pub fn is_empty(&self) -> bool {
+        self.local.is_empty()
+    }
+
+    /// World positions of every vertex at the start and end of `window`.
+    pub fn positions(&self, window: StepWindow, start: &mut Vec<Vector3<f64>>, end: &mut Vec<Vector3<f64>>) {
+        start.clear();
+        end.clear();
+        for (p, &c) in self.local.iter().zip(&self.vertex_collider) {
+            let placement = &self.bodies[c as usize].placement;
+            let (from, to) = (placement.world_from_local(window.t0), placement.world_from_local(window.t1));
+            start.push((from * Point3::from(*p)).coords);
+            end.push((to * Point3::from(*p)).coords);
+        }
+    }
+}
+
+/// Sharp vertices and edges of an analytic shape, in its frame.
+fn sharp_features(shape: &Shape) -> (Vec<Vector3<f64>>, Vec<[u32; 2]>) {
+    match *shape {
+        Shape::Plane | Shape::Sphere { .. } => (Vec::new(), Vec::new()),
+        Shape::Box { half_extents: h } => {
+            let corners: Vec<Vector3<f64>> =
+                (0..8).map(|k| Vector3::new(sign(k & 1) * h.x, sign(k & 2) * h.y, sign(k & 4) * h.z)).collect();
+            let edges = (0..8u32)
+                .flat_map(|a| [1u32, 2, 4].into_iter().filter(move |bit| a & bit == 0).map(move |bit| [a, a | bit]))
+                .collect();
+            (corners, edges)
+        }
+        Shape::Cylinder { radius, half_height } => {
+            let mut points = rim(radius, -half_height);
+            points.extend(rim(radius, half_height));
+            let n = RIM_SEGMENTS as u32;
+            let mut edges = rim_edges(0);
+            edges.extend(rim_edges(n));
+            edges.extend((0..n).map(|k| [k, n + k]));
+            (points, edges)
+        }
+        Shape::Cone { radius, half_height } => {
+            let mut points = rim(radius, -half_height);
+            let apex = points.len() as u32;
+            points.push(Vector3::new(0.0, half_height, 0.0));
+            let mut edges = rim_edges(0);
+            edges.extend((0..RIM_SEGMENTS as u32).map(|k| [k, apex]));
+            (points, edges)
+        }
+        Shape::Prism { side, half_height } => {
+            let circumradius = side / 3f64.sqrt();
+            let corner = |deg: f64, y: f64| {
+                let (s, c) = deg.to_radians().sin_cos();
+                Vector3::new(circumradius * s, y, circumradius * c)
+            };
+            let points: Vec<Vector3<f64>> =
+                [-half_height, half_height].iter().flat_map(|&y| [0.0, 120.0, 240.0].map(|d| corner(d, y))).collect();
+            let edges = vec![[0, 1], [1, 2], [2, 0], [3, 4], [4, 5], [5, 3], [0, 3], [1, 4], [2, 5]];
+            (points, edges)
+        }
+    }
+}
+
+fn sign(bit: usize) -> f64 {
+    if bit == 0 { -1.0 } else { 1.0 }
+}
+
+/// Points of a horizontal circle of `radius` at height `y`.
+fn rim(radius: f64, y: f64) -> Vec<Vector3<f64>> {
+    (0..RIM_SEGMENTS)
+        .map(|k| {
+            let angle = std::f64::consts::TAU * k as f64 / RIM_SEGMENTS as f64;
+            Vector3::new(radius * angle.cos(), y, radius * angle.sin())
+        })
+        .collect()
+}
+
+/// Edges closing a rim whose points start at `base`.
+fn rim_edges(base: u32) -> Vec<[u32; 2]> {
+    let n = RIM_SEGMENTS as u32;
+    (0..n).map(|k| [base + k, base + (k + 1) % n]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::motion::Placement;
+    use nalgebra::Isometry3;
+
+    fn collider(shape: Shape) -> Collider {
+        let placement = Placement { rest_pose: Isometry3::translation(1.0, 0.0, 0.0), motion: None };
+        Collider { name: "c".into(), shape, placement, friction: None }
+    }
+
+    #[test]
+    fn sharp_features_lie_on_their_shapes_surface() {
+        let shapes = [
+            Shape::Box { half_extents: Vector3::new(0.01, 0.5, 0.15) },
+            Shape::Cylinder { radius: 0.003, half_height: 0.2 },
+            Shape::Cone { radius: 0.15, half_height: 0.5 },
+            Shape::Prism { side: 0.2, half_height: 0.5 },
+        ];
+        for shape in shapes {
+            let (points, edges) = sharp_features(&shape);
+            for p in &points {
+                assert!(shape.signed_distance(p).distance.abs() < 1e-12, "{shape:?} {p}");
+            }
+            for [a, b] in &edges {
+                let mid = (points[*a as usize] + points[*b as usize]) / 2.0;
+                assert!(shape.signed_distance(&mid).distance <= 1e-12, "edge midpoints are on or inside");
+            }
+        }
+        let (corners, edges) = sharp_features(&Shape::Box { half_extents: Vector3::repeat(1.0) });
+        assert_eq!((corners.len(), edges.len()), (8, 12));
+        assert!(edges.iter().all(|[a, b]| (corners[*a as usize] - corners[*b as usize]).norm() == 2.0));
+    }
+
+    #[test]
+    fn obstacle_vertices_follow_their_collider() {
+        let o = Obstacles::new(
+            &[collider(Shape::Sphere { radius: 1.0 }), collider(Shape::Cone { radius: 0.1, half_height: 0.5 })],
+            &[],
+        );
+        assert_eq!(o.bodies.len(), 1, "a sphere has no sharp feature");
+        assert_eq!(o.vertex_count(), RIM_SEGMENTS + 1);
+        let (mut start, mut end) = (Vec::new(), Vec::new());
+        o.positions(StepWindow { t0: 0.0, t1: 0.1 }, &mut start, &mut end);
+        let apex = start[RIM_SEGMENTS];
+        assert!((apex - Vector3::new(1.0, 0.5, 0.0)).norm() < 1e-12);
+    }
+}
