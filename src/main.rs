@@ -1,5 +1,6 @@
 //! The `drape` command: parse, dispatch, map errors to exit codes
-//! (0 ok, 1 bad input, 2 internal failure, 130 cancelled by Ctrl-C).
+//! (0 ok, 1 bad input, 2 internal failure, 3 a check found problems,
+//! 130 cancelled by Ctrl-C).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -13,6 +14,7 @@ use drape::bake::output::BakeFolder;
 use drape::bake::summary::BakeSummary;
 use drape::bake::{self, BakeError};
 use drape::bench;
+use drape::metrics::sequence::check_sequence;
 use drape::scene::Scene;
 use drape::scene::summary::summary;
 
@@ -45,6 +47,20 @@ enum Command {
         /// Scene file (TOML).
         scene: PathBuf,
     },
+    /// Count intersecting triangles and penetrating vertices in every frame of
+    /// an OBJ sequence (a bake of ours or another program's export), with the
+    /// independent checker. Exit code 3 when any are found.
+    CheckBake {
+        /// Folder of numbered OBJ frames (frame_0000.obj, ...).
+        dir: PathBuf,
+        /// Scene whose colliders to check against (default: the scene named in
+        /// DIR/summary.json, if any; without one only the cloth is checked).
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// Also write the per-frame counts to this JSON file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Measure simulation speed (ms per frame, per stage) with strain, on the
     /// standard scenes.
     Bench {
@@ -65,6 +81,8 @@ enum Failure {
     Internal(String),
     /// Ctrl-C (exit 130).
     Cancelled(String),
+    /// A check ran and found problems (exit 3).
+    Found(String),
 }
 
 fn main() -> ExitCode {
@@ -78,6 +96,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Bake { scene, out, frames } => run_bake(&scene, &out, frames),
         Command::Check { scene } => run_check(&scene),
+        Command::CheckBake { dir, scene, json } => run_check_bake(&dir, scene.as_deref(), json.as_deref()),
         Command::Bench { frames, out } => run_bench(frames, out.as_deref()),
     };
     match result {
@@ -93,6 +112,10 @@ fn main() -> ExitCode {
         Err(Failure::Cancelled(message)) => {
             eprintln!("{message}");
             ExitCode::from(130)
+        }
+        Err(Failure::Found(message)) => {
+            eprintln!("{message}");
+            ExitCode::from(3)
         }
     }
 }
@@ -172,6 +195,55 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failur
             Err(Failure::Cancelled(format!("cancelled: {} whole frames kept in {}", records.len() + 1, out.display())))
         }
         (None, false) => Ok(()),
+    }
+}
+
+/// The scene a bake folder's summary names, if it still exists.
+fn scene_of_bake(dir: &Path) -> Option<PathBuf> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
+    let summary: BakeSummary = serde_json::from_str(&text).ok()?;
+    summary.scene_file.map(PathBuf::from).filter(|p| p.is_file())
+}
+
+fn run_check_bake(dir: &Path, scene: Option<&Path>, json: Option<&Path>) -> Result<(), Failure> {
+    let scene_path = scene.map(Path::to_owned).or_else(|| scene_of_bake(dir));
+    let scene = match &scene_path {
+        Some(path) => {
+            println!("colliders from {}", path.display());
+            Some(Scene::load(path).map_err(input)?)
+        }
+        None => {
+            println!("no scene given: checking the cloth against itself only");
+            None
+        }
+    };
+    let checks = check_sequence(dir, scene.as_ref(), |c| {
+        let i = &c.intersections;
+        if i.pairs() + i.penetrating_vertices > 0 {
+            println!(
+                "frame {:>5} ({}): {} cloth-cloth pairs, {} cloth-collider triangles, {} vertices inside",
+                c.frame, c.file, i.cloth_pairs, i.collider_pairs, i.penetrating_vertices
+            );
+        }
+    })
+    .map_err(input)?;
+    if let Some(path) = json {
+        let text = serde_json::to_string_pretty(&checks).map_err(|e| Failure::Internal(e.to_string()))?;
+        drape::io::atomic::write_file(path, |out| std::io::Write::write_all(out, text.as_bytes())).map_err(input)?;
+    }
+    let bad = checks.iter().filter(|c| c.intersections.pairs() + c.intersections.penetrating_vertices > 0).count();
+    let pairs: u32 = checks.iter().map(|c| c.intersections.pairs()).sum();
+    let inside: u32 = checks.iter().map(|c| c.intersections.penetrating_vertices).sum();
+    let verdict = format!(
+        "{} frames checked: {bad} with problems ({pairs} intersecting triangle pairs, {inside} penetrating vertices in all)",
+        checks.len()
+    );
+    match bad {
+        0 => {
+            println!("{verdict}");
+            Ok(())
+        }
+        _ => Err(Failure::Found(verdict)),
     }
 }
 

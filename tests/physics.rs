@@ -121,6 +121,40 @@ fn hanging_cloth_comes_to_rest_and_the_pins_carry_its_weight() {
     assert!(reaction.xz().norm() < 0.01 * weight);
 }
 
+/// A cloth dropped flat onto the ground settles, and the ground then
+/// carries exactly its weight through the contact constraints (eq. 14), so
+/// friction (μ N) acts with the right normal force.
+#[test]
+fn cloth_resting_on_the_ground_is_carried_with_its_weight() {
+    let s = scene(
+        r#"
+        [time]
+        fps = 30.0
+        duration_s = 1.0
+        [solver]
+        steps_per_frame = 2
+        tolerance = 1e-6
+        [[garment]]
+        name = "cloth"
+        preset = "cotton"
+        mesh = { grid = { size_m = 1.0, resolution = 16 } }
+        translation_m = [0.0, 0.05, 0.0]
+        [[collider]]
+        name = "ground"
+        shape = "plane"
+        "#,
+    );
+    let mut sim = s.simulator().unwrap();
+    let h = s.step_duration();
+    for _ in 0..s.frame_count * s.steps_per_frame as usize {
+        sim.step(h).unwrap();
+    }
+    let weight = sim.cloth().mass.iter().sum::<f64>() * 9.81;
+    let support = sim.collider_support();
+    assert!((support - weight).abs() < 0.01 * weight, "support {support} N vs weight {weight} N");
+    assert!(sim.positions().iter().all(|p| p.y >= 0.0), "nothing sinks into the ground");
+}
+
 /// Bakes `scene` and hands every frame's positions to `check`.
 fn bake_frames(scene: &Scene, mut check: impl FnMut(usize, &[Vector3<f64>])) {
     let (records, failure) = bake::run(scene, scene.frame_count, &AtomicBool::new(false), |sim, record| {

@@ -103,6 +103,11 @@ pub struct FrameRow {
     pub contacts: u32,
     /// Triangle-pair contacts found, summed over the frame's steps.
     pub triangle_contacts: u32,
+    /// Steps of the frame that needed rigid impact zones.
+    pub impact_zone_steps: u32,
+    /// Crossings the collision pipeline could not resolve, summed over the
+    /// frame's steps (0 unless something failed).
+    pub unresolved_crossings: u32,
     /// What the independent checker found at the frame end.
     pub intersections: Intersections,
 }
@@ -180,6 +185,8 @@ impl BakeSummary {
                     mean_strain: r.mean_strain,
                     contacts: r.contacts,
                     triangle_contacts: r.triangle_contacts,
+                    impact_zone_steps: r.impact_zone_steps,
+                    unresolved_crossings: r.unresolved_crossings,
                     intersections: r.intersections,
                 })
                 .collect(),

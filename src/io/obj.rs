@@ -95,6 +95,56 @@ pub fn read_obj(path: &Path) -> Result<ObjGarment, ObjError> {
     Ok(ObjGarment { mesh, report, warnings })
 }
 
+/// The triangles of one exported frame, from any program: every object and
+/// group of the file joined, polygons fanned, and vertices with identical
+/// coordinates (split by groups or UV seams) merged, so that triangles sharing
+/// a corner share its index.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameMesh {
+    /// Vertex positions, m.
+    pub positions: Vec<Vector3<f64>>,
+    /// Triangles, indices into `positions`.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Reads one frame of an OBJ sequence (positions and faces only).
+pub fn read_frame(path: &Path) -> Result<FrameMesh, ObjError> {
+    let bytes = std::fs::read(path).map_err(|source| ObjError::Read { path: path.to_owned(), source })?;
+    let options =
+        tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
+    let (models, _) =
+        tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, |_| Err(tobj::LoadError::OpenFileFailed))
+            .map_err(|e| {
+                let line = std::str::from_utf8(&bytes).ok().and_then(|text| locate_error(text, &e));
+                ObjError::Parse { path: path.to_owned(), line, problem: e.to_string() }
+            })?;
+    let mut frame = FrameMesh::default();
+    let mut index_of = std::collections::HashMap::new();
+    for model in &models {
+        let m = &model.mesh;
+        let ids: Vec<u32> = m
+            .positions
+            .chunks_exact(3)
+            .map(|p| {
+                let next = index_of.len() as u32;
+                *index_of.entry([p[0], p[1], p[2]].map(|c| (c + 0.0).to_bits())).or_insert_with(|| {
+                    frame.positions.push(Vector3::new(p[0], p[1], p[2]));
+                    next
+                })
+            })
+            .collect();
+        frame.triangles.extend(m.indices.chunks_exact(3).map(|t| [0, 1, 2].map(|k| ids[t[k] as usize])));
+    }
+    if let Some(bad) = frame.positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(ObjError::Parse {
+            path: path.to_owned(),
+            line: None,
+            problem: format!("vertex {} is not finite", bad + 1),
+        });
+    }
+    Ok(frame)
+}
+
 fn convert_material(m: &tobj::Material, folder: &Path) -> Material {
     Material {
         name: m.name.clone(),

@@ -138,6 +138,10 @@ pub struct CollisionSettings {
     /// Rounds of rigid impact zones before a step gives up.
     #[serde(default = "default_zone_rounds")]
     pub zone_rounds: u32,
+    /// Test each vertex and edge from one owning triangle only (PAPER
+    /// Algorithm 1); `false` is for measuring what that saves.
+    #[serde(default = "default_representative")]
+    pub representative_triangles: bool,
 }
 
 fn default_passes() -> u32 {
@@ -155,6 +159,9 @@ fn default_sweeps() -> u32 {
 fn default_zone_rounds() -> u32 {
     PipelineSettings::default().zone_rounds
 }
+fn default_representative() -> bool {
+    PipelineSettings::default().representative_triangles
+}
 
 impl Default for CollisionSettings {
     fn default() -> Self {
@@ -167,6 +174,7 @@ impl Default for CollisionSettings {
             influence_threshold: p.influence_threshold,
             constraint_sweeps: p.constraint_sweeps,
             zone_rounds: p.zone_rounds,
+            representative_triangles: p.representative_triangles,
         }
     }
 }
@@ -180,6 +188,7 @@ impl CollisionSettings {
             influence_threshold: self.influence_threshold,
             constraint_sweeps: self.constraint_sweeps,
             zone_rounds: self.zone_rounds,
+            representative_triangles: self.representative_triangles,
         }
     }
 }

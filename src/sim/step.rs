@@ -349,6 +349,14 @@ impl Simulator {
         &self.pins
     }
 
+    /// Total normal force the colliders exerted on the particles resting on
+    /// them during the last step, N: the constraint impulses of eq. 14 over
+    /// the step duration. A cloth lying still on the ground is carried with
+    /// exactly its weight.
+    pub fn collider_support(&self) -> f64 {
+        self.normal_force.iter().sum()
+    }
+
     /// Kinetic energy ½ Σ m v², J.
     pub fn kinetic_energy(&self) -> f64 {
         0.5 * self.v.iter().zip(&self.particles.mass).map(|(v, m)| m * v.norm_squared()).sum::<f64>()
@@ -546,9 +554,10 @@ impl Simulator {
             .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
     }
 
-    /// Reads each contact's normal impulse from the final solve's residual
-    /// `b − A Δv`: its force drives the friction of the next step; a pulling
-    /// contact is released for the next step instead.
+    /// Reads each contact's normal impulse from the final solve: the surface
+    /// supplies what the system lacks, `A Δv − b` (N·s), along the normal.
+    /// Its force drives the friction of the next step; a pulling contact is
+    /// released for the next step instead.
     fn record_contact_forces(&mut self, h: f64) {
         let ws = &mut self.ws;
         let any_contact = ws.surface_contacts.iter().any(Option::is_some);
@@ -559,7 +568,7 @@ impl Simulator {
         let (contacts, product, rhs) = (&ws.surface_contacts, &ws.residual, &ws.system.rhs);
         self.normal_force.par_iter_mut().zip(self.released.par_iter_mut()).enumerate().with_min_len(CHUNK).for_each(
             |(i, (force, released))| {
-                let impulse = contacts[i].as_ref().map_or(0.0, |c| (rhs[i] - product[i]).dot(&c.normal));
+                let impulse = contacts[i].as_ref().map_or(0.0, |c| (product[i] - rhs[i]).dot(&c.normal));
                 *released = impulse < 0.0;
                 *force = impulse.max(0.0) / h;
             },

@@ -22,7 +22,7 @@
 
 use nalgebra::Vector3;
 
-use super::geometry::{closest_between_segments, closest_on_triangle};
+use super::geometry::{closest_between_segments, closest_on_triangle, point_triangle_distance, segment_distance};
 
 /// Bisection steps on a sign change: 2⁻⁶⁰ of the step.
 const BISECTIONS: usize = 60;
@@ -69,9 +69,20 @@ pub struct Hit {
 /// Vertex `p` against triangle `(a, b, c)`: the first crossing within the
 /// step, else the end or start proximity closer than `thickness`.
 pub fn vertex_triangle(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64) -> Option<Hit> {
+    vertex_triangle_within(p, a, b, c, thickness, f64::INFINITY)
+}
+
+/// [`vertex_triangle`] for features that move relative to each other by at
+/// most `reach` m over the step: farther apart than `thickness + reach` at
+/// the start, they cannot meet, and nothing more is computed.
+pub fn vertex_triangle_within(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64, reach: f64) -> Option<Hit> {
     let at = |t: f64| (p.at(t), a.at(t), b.at(t), c.at(t));
     let (p0, a0, b0, c0) = at(0.0);
-    let start_distance = distance_vt(&p0, &a0, &b0, &c0);
+    let start_gap = closest_direction_vt(&p0, &a0, &b0, &c0);
+    let start_distance = start_gap.norm();
+    if start_distance > thickness + reach {
+        return None;
+    }
     // The triangle's normal at the contact, on the side the vertex came from;
     // a vertex that started in the triangle's plane is pushed back the way it
     // came within the plane.
@@ -82,7 +93,7 @@ pub fn vertex_triangle(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64) -
         let face = (bt - at_).cross(&(ct - at_));
         let oriented = if side0 != 0.0 { orient(face, face0 * side0.signum()) } else { None };
         oriented
-            .or_else(|| closest_direction_vt(&p0, &a0, &b0, &c0).try_normalize(0.0))
+            .or_else(|| start_gap.try_normalize(0.0))
             .or_else(|| (pt - point_on_triangle(&pt, &at_, &bt, &ct)).try_normalize(0.0))
             .or_else(|| face.try_normalize(0.0))
     };
@@ -106,13 +117,13 @@ pub fn vertex_triangle(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64) -
         let cubic = Cubic::vertex_triangle(p, a, b, c);
         let crossing = |t: f64| {
             let (pt, at_, bt, ct) = at(t);
-            distance_vt(&pt, &at_, &bt, &ct) <= thickness
+            point_triangle_distance(&pt, &at_, &bt, &ct) <= thickness
         };
         if let Some(t) = cubic.first_root_where(
             crossing,
             |t| {
                 let (pt, at_, bt, ct) = at(t);
-                distance_vt(&pt, &at_, &bt, &ct)
+                point_triangle_distance(&pt, &at_, &bt, &ct)
             },
             thickness,
         ) {
@@ -120,7 +131,7 @@ pub fn vertex_triangle(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64) -
         }
     }
     let (p1, a1, b1, c1) = at(1.0);
-    if distance_vt(&p1, &a1, &b1, &c1) < thickness {
+    if point_triangle_distance(&p1, &a1, &b1, &c1) < thickness {
         return hit(1.0);
     }
     (start_distance < thickness).then(|| hit(0.0)).flatten()
@@ -129,10 +140,20 @@ pub fn vertex_triangle(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64) -
 /// Edge `a b` against edge `c d`: the first crossing within the step, else the
 /// end or start proximity closer than `thickness`.
 pub fn edge_edge(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64) -> Option<Hit> {
+    edge_edge_within(a, b, c, d, thickness, f64::INFINITY)
+}
+
+/// [`edge_edge`] for edges that move relative to each other by at most
+/// `reach` m over the step (see [`vertex_triangle_within`]).
+pub fn edge_edge_within(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64, reach: f64) -> Option<Hit> {
     let at = |t: f64| (a.at(t), b.at(t), c.at(t), d.at(t));
     let (a0, b0, c0, d0) = at(0.0);
-    let start_distance = distance_ee(&a0, &b0, &c0, &d0);
-    let side0 = closest_direction_ee(&a0, &b0, &c0, &d0);
+    let (p0, q0) = closest_points_ee(&a0, &b0, &c0, &d0);
+    let start_distance = (p0 - q0).norm();
+    if start_distance > thickness + reach {
+        return None;
+    }
+    let side0 = (p0 - q0).try_normalize(0.0);
     let hit = |t: f64| {
         let (at_, bt, ct, dt) = at(t);
         let (s, u) = closest_between_segments(&at_, &bt, &ct, &dt);
@@ -150,7 +171,7 @@ pub fn edge_edge(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64) -> Opti
     let cubic = Cubic::edge_edge(a, b, c, d);
     let distance = |t: f64| {
         let (at_, bt, ct, dt) = at(t);
-        distance_ee(&at_, &bt, &ct, &dt)
+        segment_distance(&at_, &bt, &ct, &dt)
     };
     if let Some(t) = cubic.first_root_where(|t| distance(t) <= thickness, distance, thickness) {
         return hit(t).map(|h| Hit { crossing: true, ..h });
@@ -173,10 +194,6 @@ fn point_on_triangle(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>, c: &V
     a * wa + b * wb + c * wc
 }
 
-fn distance_vt(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>) -> f64 {
-    (p - point_on_triangle(p, a, b, c)).norm()
-}
-
 fn closest_direction_vt(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>) -> Vector3<f64> {
     p - point_on_triangle(p, a, b, c)
 }
@@ -189,23 +206,6 @@ fn closest_points_ee(
 ) -> (Vector3<f64>, Vector3<f64>) {
     let (s, t) = closest_between_segments(a, b, c, d);
     (a + (b - a) * s, c + (d - c) * t)
-}
-
-fn distance_ee(a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
-    let (p, q) = closest_points_ee(a, b, c, d);
-    (p - q).norm()
-}
-
-/// The direction from edge `c d` to edge `a b` at their closest points, or
-/// along their common normal when they touch; `None` if undefined.
-fn closest_direction_ee(
-    a: &Vector3<f64>,
-    b: &Vector3<f64>,
-    c: &Vector3<f64>,
-    d: &Vector3<f64>,
-) -> Option<Vector3<f64>> {
-    let (p, q) = closest_points_ee(a, b, c, d);
-    (p - q).try_normalize(0.0)
 }
 
 /// A cubic `c₀ + c₁ t + c₂ t² + c₃ t³` on `[0, 1]`.
@@ -250,33 +250,33 @@ impl Cubic {
         self.c.iter().all(|c| c.abs() <= self.noise)
     }
 
-    /// Split points of `[0, 1]` into pieces where the cubic is monotone.
-    fn pieces(&self) -> Vec<f64> {
+    /// Split points of `[0, 1]` into pieces where the cubic is monotone: 0,
+    /// the critical points inside, 1 (the first `count` entries, in order).
+    fn pieces(&self) -> ([f64; 4], usize) {
         let (a, b, c) = (3.0 * self.c[3], 2.0 * self.c[2], self.c[1]);
-        let mut points = vec![0.0];
-        let mut inner: Vec<f64> = if a.abs() > f64::EPSILON * (b.abs() + c.abs()) {
+        let mut inner = [f64::NAN; 2];
+        if a.abs() > f64::EPSILON * (b.abs() + c.abs()) {
             let disc = b * b - 4.0 * a * c;
             if disc >= 0.0 {
                 let q = -0.5 * (b + b.signum() * disc.sqrt());
-                let mut r = vec![];
-                if q != 0.0 {
-                    r.push(c / q);
-                }
-                r.push(q / a);
-                r
-            } else {
-                vec![]
+                inner = [if q != 0.0 { c / q } else { f64::NAN }, q / a];
             }
         } else if b != 0.0 {
-            vec![-c / b]
-        } else {
-            vec![]
-        };
-        inner.retain(|t| t.is_finite() && *t > 0.0 && *t < 1.0);
-        inner.sort_by(f64::total_cmp);
-        points.extend(inner);
-        points.push(1.0);
-        points
+            inner[0] = -c / b;
+        }
+        if inner[1] < inner[0] {
+            inner.swap(0, 1);
+        }
+        let mut points = [0.0; 4];
+        let mut count = 1;
+        for t in inner {
+            if t > 0.0 && t < 1.0 {
+                points[count] = t;
+                count += 1;
+            }
+        }
+        points[count] = 1.0;
+        (points, count + 1)
     }
 
     /// The earliest root `t` in `[0, 1]` for which `accept(t)`; when the cubic
@@ -285,8 +285,8 @@ impl Cubic {
         if self.vanishes() {
             return (0..=COPLANAR_SAMPLES).map(|k| k as f64 / COPLANAR_SAMPLES as f64).find(|&t| distance(t) <= limit);
         }
-        let points = self.pieces();
-        for w in points.windows(2) {
+        let (points, count) = self.pieces();
+        for w in points[..count].windows(2) {
             let (lo, hi) = (w[0], w[1]);
             let (f_lo, f_hi) = (self.value(lo), self.value(hi));
             if f_lo.abs() <= self.noise && accept(lo) {
@@ -345,7 +345,7 @@ mod tests {
     fn sampled_vt_crossing(p: &Path, a: &Path, b: &Path, c: &Path, samples: usize) -> bool {
         let f = |t: f64| {
             let (pt, at, bt, ct) = (p.at(t), a.at(t), b.at(t), c.at(t));
-            ((bt - at).cross(&(ct - at)).dot(&(pt - at)), distance_vt(&pt, &at, &bt, &ct))
+            ((bt - at).cross(&(ct - at)).dot(&(pt - at)), point_triangle_distance(&pt, &at, &bt, &ct))
         };
         let mut previous = f(0.0);
         for k in 1..=samples {
@@ -361,7 +361,7 @@ mod tests {
     fn sampled_ee_crossing(a: &Path, b: &Path, c: &Path, d: &Path, samples: usize) -> bool {
         let f = |t: f64| {
             let (at, bt, ct, dt) = (a.at(t), b.at(t), c.at(t), d.at(t));
-            ((bt - at).cross(&(dt - ct)).dot(&(ct - at)), distance_ee(&at, &bt, &ct, &dt))
+            ((bt - at).cross(&(dt - ct)).dot(&(ct - at)), segment_distance(&at, &bt, &ct, &dt))
         };
         let mut previous = f(0.0);
         for k in 1..=samples {

@@ -40,6 +40,13 @@ impl Ownership {
         Ownership { owned }
     }
 
+    /// Every triangle owns all its features: what testing without
+    /// representative triangles amounts to (each shared feature tested once
+    /// per incident triangle).
+    pub fn everything(triangle_count: usize) -> Self {
+        Ownership { owned: vec![0b11_1111; triangle_count] }
+    }
+
     /// Corners `k` of triangle `t` whose vertex it owns.
     pub fn vertices(&self, t: usize) -> impl Iterator<Item = usize> + '_ {
         (0..3).filter(move |k| self.owned[t] & (1 << k) != 0)

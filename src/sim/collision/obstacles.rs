@@ -169,12 +169,17 @@ fn sign(bit: usize) -> f64 {
     if bit == 0 { -1.0 } else { 1.0 }
 }
 
-/// Points of a horizontal circle of `radius` at height `y`.
+/// Corners of the polygon circumscribed about a horizontal circle of
+/// `radius` at height `y`: its sides touch the circle at their midpoints, so
+/// the polygon encloses the circle and cloth kept off the polygon is kept off
+/// the circle (an inscribed one would let the true rim poke through by up to
+/// `radius (1 − cos(π/N))`).
 fn rim(radius: f64, y: f64) -> Vec<Vector3<f64>> {
+    let corner_radius = radius / (std::f64::consts::PI / RIM_SEGMENTS as f64).cos();
     (0..RIM_SEGMENTS)
         .map(|k| {
             let angle = std::f64::consts::TAU * k as f64 / RIM_SEGMENTS as f64;
-            Vector3::new(radius * angle.cos(), y, radius * angle.sin())
+            Vector3::new(corner_radius * angle.cos(), y, corner_radius * angle.sin())
         })
         .collect()
 }
@@ -197,21 +202,23 @@ mod tests {
     }
 
     #[test]
-    fn sharp_features_lie_on_their_shapes_surface() {
+    fn sharp_features_enclose_their_shape_tightly() {
         let shapes = [
-            Shape::Box { half_extents: Vector3::new(0.01, 0.5, 0.15) },
-            Shape::Cylinder { radius: 0.003, half_height: 0.2 },
-            Shape::Cone { radius: 0.15, half_height: 0.5 },
-            Shape::Prism { side: 0.2, half_height: 0.5 },
+            (Shape::Box { half_extents: Vector3::new(0.01, 0.5, 0.15) }, 0.0),
+            (Shape::Cylinder { radius: 0.003, half_height: 0.2 }, 0.003),
+            (Shape::Cone { radius: 0.15, half_height: 0.5 }, 0.15),
+            (Shape::Prism { side: 0.2, half_height: 0.5 }, 0.0),
         ];
-        for shape in shapes {
+        for (shape, radius) in shapes {
+            // How far a circumscribed polygon's corner stands off its circle.
+            let excess = radius * (1.0 / (std::f64::consts::PI / RIM_SEGMENTS as f64).cos() - 1.0);
             let (points, edges) = sharp_features(&shape);
-            for p in &points {
-                assert!(shape.signed_distance(p).distance.abs() < 1e-12, "{shape:?} {p}");
-            }
             for [a, b] in &edges {
-                let mid = (points[*a as usize] + points[*b as usize]) / 2.0;
-                assert!(shape.signed_distance(&mid).distance <= 1e-12, "edge midpoints are on or inside");
+                for k in 0..=8 {
+                    let p = points[*a as usize].lerp(&points[*b as usize], k as f64 / 8.0);
+                    let d = shape.signed_distance(&p).distance;
+                    assert!((-1e-12..=excess + 1e-12).contains(&d), "{shape:?}: {p} at {d} m from the surface");
+                }
             }
         }
         let (corners, edges) = sharp_features(&Shape::Box { half_extents: Vector3::repeat(1.0) });

@@ -75,6 +75,8 @@ pub struct Points<'a> {
     pub velocity: &'a mut [Vector3<f64>],
     /// Inverse masses, 1/kg; zero for pinned particles and obstacle vertices.
     pub inverse_mass: &'a [f64],
+    /// Set for every point whose path the response changes.
+    pub moved: &'a mut [bool],
     /// Step, s.
     pub h: f64,
 }
@@ -94,6 +96,7 @@ impl Points<'_> {
             let dv = impulse * (c.hit.weights[k] * self.inverse_mass[i]);
             self.velocity[i] += dv;
             self.end[i] += dv * self.h;
+            self.moved[i] |= dv != Vector3::zeros();
         }
     }
 
@@ -157,15 +160,21 @@ impl Zones {
 
 /// Makes the free points of one zone (`members`) move rigidly, keeping their
 /// linear and angular momentum about their centre of mass at the start of
-/// the step; `prescribed(i)` is the velocity of a pinned or obstacle point
-/// the zone must follow instead, if any.
+/// the step. `prescribed` maps a start position to where the pinned or
+/// obstacle point the zone must follow would carry it by the end of the
+/// step, if the zone holds one.
+///
+/// Either way every point moves along a straight line under one invertible
+/// affine map of the start positions (`I + t h Ω` for a free zone, whose
+/// `AᵀA ≥ I` never brings two points closer), so no two features of the zone
+/// can meet during the step if they were apart at its start.
 pub fn rigidify(points: &mut Points, members: &[u32], prescribed: Option<&dyn Fn(&Vector3<f64>) -> Vector3<f64>>) {
     let free: Vec<usize> = members.iter().map(|&i| i as usize).filter(|&i| points.inverse_mass[i] > 0.0).collect();
-    if let Some(follow) = prescribed {
+    if let Some(carry) = prescribed {
         for &i in &free {
-            let v = follow(&points.start[i]);
-            points.velocity[i] = v;
-            points.end[i] = points.start[i] + v * points.h;
+            points.end[i] = carry(&points.start[i]);
+            points.velocity[i] = (points.end[i] - points.start[i]) / points.h;
+            points.moved[i] = true;
         }
         return;
     }
@@ -188,6 +197,7 @@ pub fn rigidify(points: &mut Points, members: &[u32], prescribed: Option<&dyn Fn
         let v = linear + spin.cross(&(points.start[i] - centre));
         points.velocity[i] = v;
         points.end[i] = points.start[i] + v * points.h;
+        points.moved[i] = true;
     }
 }
 
@@ -207,7 +217,14 @@ mod tests {
         let mut end = start;
         let mut velocity = [Vector3::new(0.0, -3.0, 0.0), Vector3::zeros(), Vector3::zeros(), Vector3::zeros()];
         let h = 0.05;
-        let mut points = Points { start: &start, end: &mut end, velocity: &mut velocity, inverse_mass: &[1.0; 4], h };
+        let mut points = Points {
+            start: &start,
+            end: &mut end,
+            velocity: &mut velocity,
+            inverse_mass: &[1.0; 4],
+            moved: &mut [false; 4],
+            h,
+        };
         let weights = [1.0, -0.6, -0.2, -0.2];
         let contact = Contact {
             kind: ContactKind::VertexTriangle,
@@ -238,6 +255,7 @@ mod tests {
             end: &mut end,
             velocity: &mut velocity,
             inverse_mass: &[2.0, 0.0, 0.0, 0.0],
+            moved: &mut [false; 4],
             h: 0.01,
         };
         let contact = Contact {
@@ -271,8 +289,14 @@ mod tests {
         let start = [Vector3::new(-1.0, 0.0, 0.0), Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 1.0)];
         let mut end = start;
         let mut velocity = [Vector3::new(0.0, 1.0, 0.0), Vector3::new(0.0, -1.0, 0.0), Vector3::new(0.3, 0.0, 0.0)];
-        let mut points =
-            Points { start: &start, end: &mut end, velocity: &mut velocity, inverse_mass: &[1.0; 3], h: 0.1 };
+        let mut points = Points {
+            start: &start,
+            end: &mut end,
+            velocity: &mut velocity,
+            inverse_mass: &[1.0; 3],
+            moved: &mut [false; 3],
+            h: 0.1,
+        };
         rigidify(&mut points, &[0, 1, 2], None);
         let momentum: Vector3<f64> = points.velocity.iter().sum();
         assert!((momentum - Vector3::new(0.3, 0.0, 0.0)).norm() < 1e-12);

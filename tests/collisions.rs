@@ -1,0 +1,146 @@
+//! The standard collision scenes of `SCENES.md`, baked in the test and checked
+//! at every frame end by the independent checker (`metrics`), which shares no
+//! code with the solver's collision pipeline.
+//!
+//! Resolutions are reduced from the benchmark sizes (noted per test) so the
+//! suite stays within the CI budget; the scene, its colliders, fabric, step
+//! and duration are the standard ones.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use drape::bake::{self, FrameRecord};
+use drape::scene::Scene;
+use drape::scene::file::{MeshSpec, SceneFile};
+use nalgebra::Vector3;
+
+fn standard(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes").join(format!("{name}.toml"))
+}
+
+/// A standard scene with its garment meshed more coarsely.
+fn reduced(name: &str, resolution: usize) -> Scene {
+    Scene::load_edited(&standard(name), |file: &mut SceneFile| match &mut file.garments[0].mesh {
+        MeshSpec::Grid { resolution: n, .. } => *n = resolution,
+        MeshSpec::Tube { around, along, .. } => (*around, *along) = (resolution, resolution),
+        other => panic!("{name}: unexpected mesh {other:?}"),
+    })
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Bakes the whole scene, handing every frame (with frame 0) to `check`.
+fn bake_all(scene: &Scene, mut check: impl FnMut(&FrameRecord, &[Vector3<f64>])) -> Vec<FrameRecord> {
+    let (records, failure) = bake::run(scene, scene.frame_count, &AtomicBool::new(false), |sim, record| {
+        check(record, sim.positions());
+        Ok(())
+    })
+    .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    assert!(failure.is_none(), "{}: {failure:?}", scene.name);
+    assert_eq!(records.len(), scene.frame_count);
+    records
+}
+
+/// Bakes `scene` and asserts zero intersecting triangle pairs (cloth-cloth and
+/// cloth-collider) and zero penetrating vertices at every frame end.
+fn assert_never_intersects(scene: &Scene) -> Vec<FrameRecord> {
+    bake_all(scene, |record, _| {
+        let found = record.intersections;
+        assert_eq!(
+            (found.cloth_pairs, found.collider_pairs, found.penetrating_vertices),
+            (0, 0, 0),
+            "{}: frame {} ends with intersections",
+            scene.name,
+            record.frame
+        );
+    })
+}
+
+/// Sharp edges and an apex (PAPER Experiment 3); 48 × 48 instead of 128 × 128.
+#[test]
+fn pillars_never_intersect() {
+    let records = assert_never_intersects(&reduced("pillars", 48));
+    assert!(records.iter().any(|r| r.triangle_contacts > 0), "the cloth met the pillars' sharp features");
+}
+
+/// A tablecloth folding over the table's edges onto itself; 48 × 48 instead
+/// of 96 × 96, self-collision on (the default).
+#[test]
+fn drape_table_with_self_collision_never_intersects() {
+    let scene = reduced("drape_table", 48);
+    assert!(scene.garments[0].self_collision);
+    assert_never_intersects(&scene);
+}
+
+/// A ball at 8 m/s (0.27 m per frame, more than its diameter) is stopped by
+/// the cloth, never crosses it; full resolution.
+#[test]
+fn projectile_is_caught_not_crossed() {
+    let scene = Scene::load(&standard("projectile")).unwrap();
+    let (radius, rest_height) = (0.1, 1.0);
+    let ball_centre = |t: f64| 1.35 - 8.0 * t.min(0.05);
+    let mut lowest_cloth = f64::INFINITY;
+    bake_all(&scene, |record, x| {
+        assert_eq!(record.intersections.pairs() + record.intersections.penetrating_vertices, 0, "{record:?}");
+        let centre = ball_centre(record.time_s);
+        // Particles within 5 cm of the ball's axis lie under its lower cap
+        // (at most centre - sqrt(r² - 0.05²)) whenever the ball presses on them.
+        let cap = centre - (radius * radius - 0.05f64.powi(2)).sqrt();
+        for p in x.iter().filter(|p| p.x.hypot(p.z) < 0.05) {
+            assert!(p.y < cap, "frame {}: a particle at {p} is above the ball's lower cap {cap}", record.frame);
+        }
+        lowest_cloth = x.iter().map(|p| p.y).fold(lowest_cloth, f64::min);
+    });
+    // The ball ends with its centre 5 cm below the rest height, so the cloth
+    // under it has been carried down at least that far plus the cap.
+    assert!(lowest_cloth < rest_height - 0.05 - 0.08, "the cloth's lowest point was {lowest_cloth} m");
+}
+
+/// Extreme self-contact: a tube wrung two turns each way; 32 × 32 instead
+/// of 64 × 64.
+#[test]
+fn twist_never_intersects() {
+    let records = assert_never_intersects(&reduced("twist", 32));
+    let contacts: u32 = records.iter().map(|r| r.triangle_contacts).sum();
+    assert!(contacts > 10_000, "the tube collapsed onto itself: {contacts} contacts");
+}
+
+/// A bed of 3 mm needles: no vertex or edge passes one; 48 × 48 instead of
+/// 96 × 96.
+#[test]
+fn needles_are_never_passed() {
+    assert_never_intersects(&reduced("needles", 48));
+}
+
+/// Friction carries the cloth round with a spinning sphere: after 2 s of
+/// spinning (two turns of the sphere) the cloth on top has turned at least
+/// 90° with it; 32 × 32 instead of 64 × 64.
+#[test]
+fn spin_sphere_turns_the_cloth_by_friction() {
+    let scene = reduced("spin_sphere", 32);
+    let centre = Vector3::new(0.0, 0.5, 0.0);
+    // Particles resting on the sphere's upper half at the start of the spin,
+    // and the unwrapped angle each has turned about Y since.
+    let mut tracked: Vec<(usize, f64, f64)> = Vec::new();
+    let mut turned = 0.0;
+    bake_all(&scene, |record, x| {
+        assert_eq!(record.intersections.pairs() + record.intersections.penetrating_vertices, 0, "{record:?}");
+        let angle = |p: &Vector3<f64>| p.z.atan2(p.x);
+        if (record.time_s - 1.0).abs() < 1e-9 {
+            tracked = (0..x.len())
+                .filter(|&i| (x[i] - centre).norm() < 0.31 && x[i].y > 0.6 && x[i].xz().norm() > 0.05)
+                .map(|i| (i, angle(&x[i]), 0.0))
+                .collect();
+        }
+        for (i, last, total) in &mut tracked {
+            let now = angle(&x[*i]);
+            let step = (now - *last + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+            (*last, *total) = (now, *total + step);
+        }
+        if !tracked.is_empty() {
+            turned = tracked.iter().map(|t| t.2).sum::<f64>() / tracked.len() as f64;
+        }
+    });
+    assert!(tracked.len() > 20, "cloth rests on the sphere when it starts spinning");
+    // The sphere spins at +360°/s about Y, which takes atan2(z, x) negative.
+    assert!(-turned.to_degrees() >= 90.0, "the cloth turned {:.1}° in 2 s", -turned.to_degrees());
+}
