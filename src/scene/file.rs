@@ -86,8 +86,9 @@ pub struct SolverSettings {
     /// Iteration cap of the conjugate-gradient solve.
     #[serde(default = "default_max_iterations")]
     pub max_iterations: u32,
-    /// Preconditioner of the conjugate-gradient solve: `multigrid` (default)
-    /// or `block_jacobi`.
+    /// Preconditioner of the conjugate-gradient solve: `cholesky` (default; a
+    /// sparse factor kept across steps while it works), `multigrid` (linear
+    /// memory, for very large meshes) or `block_jacobi`.
     #[serde(default)]
     pub preconditioner: PreconditionerKind,
 }

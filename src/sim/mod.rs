@@ -6,6 +6,7 @@
 //! parallel loop writes disjoint outputs and every reduction sums fixed chunks in
 //! a fixed order.
 
+pub mod cholesky;
 pub mod cloth;
 pub mod colliders;
 pub mod collision;

@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
+use super::cholesky::CholeskyError;
 use super::cloth::{Cloth, SpringKind};
 use super::colliders::Collider;
 use super::collision::obstacles::{MeshCollider, Obstacles};
@@ -36,9 +37,8 @@ use super::implicit::{
 };
 use super::motion::Placement;
 use super::motion::RigidMotion;
-use super::multigrid::Multigrid;
 use super::parallel::{self, CHUNK};
-use super::pcg::{self, Constraint, PcgReport, PcgSettings, PcgWorkspace, PreconditionerKind, Preconditioning};
+use super::pcg::{Constraint, FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner};
 
 /// No collider (in per-particle collider indices).
 const NO_COLLIDER: u32 = u32::MAX;
@@ -74,6 +74,9 @@ pub enum SimError {
         /// Number of particles.
         count: usize,
     },
+    /// The linear solver could not analyse the cloth's system.
+    #[error(transparent)]
+    Solver(#[from] CholeskyError),
 }
 
 /// A step that could not be completed.
@@ -172,6 +175,9 @@ pub struct StepReport {
     /// Linear solves run (one, plus one per detect → respond pass that found
     /// new contacts).
     pub solves: u32,
+    /// Cholesky factors built for the solves (the factor is kept across steps
+    /// until it goes stale).
+    pub factorizations: u32,
     /// Triangle collisions (self, meshes, sharp features).
     pub collision: CollisionReport,
 }
@@ -253,7 +259,7 @@ pub struct Simulator {
     normal_force: Vec<f64>,
     colliders: Vec<Collider>,
     settings: PcgSettings,
-    multigrid: Option<Multigrid>,
+    preconditioner: Preconditioner,
     collision: Option<CollisionPipeline>,
     x: Vec<Vector3<f64>>,
     v: Vec<Vector3<f64>>,
@@ -292,12 +298,11 @@ impl Simulator {
             .filter(|&s| cloth.spring_kind[s as usize] == SpringKind::Stretch)
             .collect();
         let layout = SystemLayout::new(&cloth);
-        let multigrid = (settings.solver.preconditioner == PreconditionerKind::Multigrid)
-            .then(|| Multigrid::new(&layout.pattern, &cloth.spring_ends));
+        let preconditioner = Preconditioner::new(settings.solver.preconditioner, &layout.pattern, &cloth.spring_ends)?;
         let collision = collision_pipeline(&cloth, &pins, &colliders, &meshes, &settings);
         Ok(Simulator {
             layout,
-            multigrid,
+            preconditioner,
             collision,
             particles: ParticleCoefficients::new(&cloth),
             springs: SpringCoefficients::new(&cloth),
@@ -404,23 +409,17 @@ impl Simulator {
         self.ws.weight_impulse.clear();
         self.ws.weight_impulse.extend((0..n).map(|i| gravity[i] * (mass[i] * h)));
         loop {
-            if let Some(multigrid) = &mut self.multigrid {
-                multigrid.prepare(&self.ws.system.matrix, &self.ws.constraints, &self.x);
-            }
-            let solve = pcg::solve(
-                &self.layout.pattern,
-                &self.ws.system.matrix,
-                &self.ws.system.rhs,
-                &self.ws.weight_impulse,
-                &self.ws.constraints,
-                &mut self.ws.velocity_change,
-                self.settings,
-                match &mut self.multigrid {
-                    Some(multigrid) => Preconditioning::Multigrid(multigrid),
-                    None => Preconditioning::BlockJacobi,
-                },
-                &mut self.ws.pcg,
-            );
+            let system = FilteredSystem {
+                pattern: &self.layout.pattern,
+                a: &self.ws.system.matrix,
+                b: &self.ws.system.rhs,
+                typical: &self.ws.weight_impulse,
+                constraints: &self.ws.constraints,
+                positions: &self.x,
+            };
+            let (solve, factored) =
+                self.preconditioner.solve(system, &mut self.ws.velocity_change, self.settings, &mut self.ws.pcg);
+            report.factorizations += factored;
             report.solver = PcgReport { iterations: report.solver.iterations + solve.iterations, ..solve };
             report.solves += 1;
             if report.solves == CONTACT_PASSES || self.colliders.is_empty() {
