@@ -64,6 +64,9 @@ enum Command {
     /// Measure simulation speed (ms per frame, per stage) with strain, on the
     /// standard scenes.
     Bench {
+        /// Which cases: the solver on drape_sphere, the collision scenes, or all.
+        #[arg(long, value_enum, default_value = "core")]
+        suite: bench::Suite,
         /// Frames per case (default: each scene's full range).
         #[arg(long)]
         frames: Option<usize>,
@@ -97,7 +100,7 @@ fn main() -> ExitCode {
         Command::Bake { scene, out, frames } => run_bake(&scene, &out, frames),
         Command::Check { scene } => run_check(&scene),
         Command::CheckBake { dir, scene, json } => run_check_bake(&dir, scene.as_deref(), json.as_deref()),
-        Command::Bench { frames, out } => run_bench(frames, out.as_deref()),
+        Command::Bench { suite, frames, out } => run_bench(suite, frames, out.as_deref()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -247,10 +250,11 @@ fn run_check_bake(dir: &Path, scene: Option<&Path>, json: Option<&Path>) -> Resu
     }
 }
 
-fn run_bench(frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {
-    let results = bench::run_core(frames, |line| eprintln!("{line}")).map_err(|e| Failure::Internal(e.to_string()))?;
-    let table = bench::markdown_table(&results);
-    println!("{table}");
+fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {
+    let results =
+        bench::run(suite, frames, |line| eprintln!("{line}")).map_err(|e| Failure::Internal(e.to_string()))?;
+    println!("{}", bench::markdown_table(&results));
+    println!("{}", bench::collision_table(&results));
     if let Some(dir) = out {
         bench::write_results(dir, &results).map_err(input)?;
         println!("wrote {}", dir.display());

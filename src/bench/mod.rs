@@ -38,16 +38,57 @@ pub fn standard_scene(name: &str) -> PathBuf {
     if relative.exists() { relative } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(relative) }
 }
 
-/// The core suite: `drape_sphere` at N = 64 and N = 128, self-contact off.
-pub fn run_core(frames: Option<usize>, log: impl Fn(&str)) -> Result<Vec<BenchResult>, BenchError> {
+/// Which cases `drape bench` runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Suite {
+    /// The solver on `drape_sphere` at N = 64 and N = 128, self-collision
+    /// off (the core issue's measure).
+    Core,
+    /// The collision scenes of SCENES.md at their standard sizes.
+    Collisions,
+    /// Both.
+    All,
+}
+
+/// Standard scenes of the collision suite, with the grid resolution to run
+/// them at (`None`: as the scene file has it).
+const COLLISION_CASES: [(&str, Option<usize>); 6] = [
+    ("drape_table", None),
+    ("drape_sphere", Some(64)),
+    ("pillars", None),
+    ("projectile", None),
+    ("needles", None),
+    ("twist", None),
+];
+
+/// Runs `suite`, logging each case as it starts.
+pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Vec<BenchResult>, BenchError> {
+    let core = [("drape_sphere", Some(64), false), ("drape_sphere", Some(128), false)];
+    let collisions = COLLISION_CASES.iter().map(|&(name, resolution)| (name, resolution, true));
+    let cases: Vec<(&str, Option<usize>, bool)> = match suite {
+        Suite::Core => core.to_vec(),
+        Suite::Collisions => collisions.collect(),
+        Suite::All => core.into_iter().chain(collisions).collect(),
+    };
     let mut results = Vec::new();
-    for n in [64, 128] {
-        let scene = Scene::load_edited(&standard_scene("drape_sphere"), |file| {
-            if let Some(MeshSpec::Grid { resolution, .. }) = file.garments.first_mut().map(|g| &mut g.mesh) {
+    for (name, resolution, self_collision) in cases {
+        let scene = Scene::load_edited(&standard_scene(name), |file| {
+            for garment in &mut file.garments {
+                garment.self_collision &= self_collision;
+            }
+            if let (Some(n), Some(MeshSpec::Grid { resolution, .. })) =
+                (resolution, file.garments.first_mut().map(|g| &mut g.mesh))
+            {
                 *resolution = n;
             }
         })?;
-        let case = format!("{} N={n}", scene.name);
+        let mut case = scene.name.clone();
+        if let Some(n) = resolution {
+            case += &format!(" N={n}");
+        }
+        if !self_collision {
+            case += " (no self-collision)";
+        }
         log(&format!("running {case} ..."));
         results.push(BenchResult { summary: measure(&scene, frames)?, case });
     }
@@ -91,13 +132,53 @@ pub fn markdown_table(results: &[BenchResult]) -> String {
     out
 }
 
+/// The collision figures of the results as a Markdown table: collision
+/// stages (median ms per frame), the most triangle contacts in a frame,
+/// elementary tests per frame with and without representative triangles,
+/// steps that needed impact zones, and what the independent checker found.
+pub fn collision_table(results: &[BenchResult]) -> String {
+    let mut out = String::from(
+        "| case | vertices | ms/frame | refit | broad | narrow | response | triangle contacts (max) \
+         | tests/frame | without ownership | saved | zone steps | intersections | penetrating |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in results {
+        let s = &r.summary;
+        let stage = |name: &str| s.stage_ms_per_frame_median.get(name).copied().unwrap_or(0.0);
+        let frames = s.frames.max(1) as f64;
+        let (tests, without) = (s.collision_tests as f64 / frames, s.collision_tests_without_ownership as f64 / frames);
+        let saved = if without > 0.0 { format!("{:.0} %", 100.0 * (1.0 - tests / without)) } else { "-".into() };
+        let contacts = s.per_frame.iter().map(|f| f.triangle_contacts).max().unwrap_or(0);
+        let _ = writeln!(
+            out,
+            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {:.0} | {:.0} | {} | {} | {} | {} |",
+            r.case,
+            s.vertices,
+            s.ms_per_frame_median,
+            stage("refit"),
+            stage("broad"),
+            stage("narrow"),
+            stage("response"),
+            contacts,
+            tests,
+            without,
+            saved,
+            s.impact_zone_steps,
+            s.intersections_total,
+            s.penetrations_total
+        );
+    }
+    out
+}
+
 /// The results as CSV, one row per case.
 pub fn csv(results: &[BenchResult]) -> String {
     let mut out = String::from("case,vertices,threads,frames,steps_per_frame,ms_per_frame_median");
     for stage in stage_names() {
         let _ = write!(out, ",{stage}_ms");
     }
-    out += ",cg_iterations_per_step,max_strain,contacts_max\n";
+    out += ",cg_iterations_per_step,max_strain,contacts_max,collision_tests,collision_tests_without_ownership,\
+            impact_zone_steps,intersections_total,penetrations_total\n";
     for r in results {
         let s = &r.summary;
         let _ = write!(
@@ -108,7 +189,18 @@ pub fn csv(results: &[BenchResult]) -> String {
         for stage in stage_names() {
             let _ = write!(out, ",{:.4}", s.stage_ms_per_frame_median.get(stage).copied().unwrap_or(0.0));
         }
-        let _ = writeln!(out, ",{:.2},{:.6},{}", s.cg_iterations_per_step_mean, s.max_strain, s.contacts_max);
+        let _ = writeln!(
+            out,
+            ",{:.2},{:.6},{},{},{},{},{},{}",
+            s.cg_iterations_per_step_mean,
+            s.max_strain,
+            s.contacts_max,
+            s.collision_tests,
+            s.collision_tests_without_ownership,
+            s.impact_zone_steps,
+            s.intersections_total,
+            s.penetrations_total
+        );
     }
     out
 }
@@ -117,5 +209,6 @@ pub fn csv(results: &[BenchResult]) -> String {
 pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), WriteError> {
     std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
     write_file(&dir.join("bench.csv"), |w| std::io::Write::write_all(w, csv(results).as_bytes()))?;
-    write_file(&dir.join("bench.md"), |w| std::io::Write::write_all(w, markdown_table(results).as_bytes()))
+    let tables = format!("{}\n{}", markdown_table(results), collision_table(results));
+    write_file(&dir.join("bench.md"), |w| std::io::Write::write_all(w, tables.as_bytes()))
 }

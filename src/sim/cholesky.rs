@@ -55,11 +55,10 @@ pub enum CholeskyError {
 
 /// Where each scalar entry of the lower triangle comes from: block slot `slot`
 /// of the block pattern (row `j`, column `i ≥ j`), entry `(c, r)` of that block
-/// (the transpose of block `(i, j)`).
+/// (the transpose of block `(i, j)`), stored as `3 c + r`.
 #[derive(Clone, Copy, Debug)]
 struct LowerEntry {
     slot: u32,
-    block_row: u32,
     component: u8,
 }
 
@@ -88,7 +87,7 @@ impl LowerTriangle {
                     let i = pattern.column(s);
                     for r in (0..3).filter(|&r| i > j || r >= c) {
                         row_index.push((3 * i + r) as u32);
-                        entries.push(LowerEntry { slot: s as u32, block_row: j as u32, component: (3 * c + r) as u8 });
+                        entries.push(LowerEntry { slot: s as u32, component: (3 * c + r) as u8 });
                     }
                 }
                 column_start.push(row_index.len() as u32);
@@ -102,25 +101,28 @@ impl LowerTriangle {
         SymbolicSparseColMatRef::new_checked(self.dimension, self.dimension, &self.column_start, None, &self.row_index)
     }
 
-    /// Fills the values with those of `S A S + c (I − S)`.
-    fn fill_filtered(&mut self, pattern: &BlockPattern, a: &[Matrix3<f64>], constraints: &[Constraint]) {
-        let filters: Vec<Matrix3<f64>> = constraints.iter().map(Constraint::filter_matrix).collect();
-        let filtered_block = |s: usize, j: usize| {
-            let i = pattern.column(s);
-            let block = filters[j] * a[s] * filters[i];
-            if i != j {
-                return block;
+    /// Fills the values with those of `S A S + c (I − S)`, through
+    /// `filtered`, a buffer of one block per stored slot.
+    fn fill_filtered(
+        &mut self,
+        pattern: &BlockPattern,
+        a: &[Matrix3<f64>],
+        constraints: &[Constraint],
+        filtered: &mut [Matrix3<f64>],
+    ) {
+        for j in 0..pattern.rows() {
+            let filter_j = constraints[j].filter_matrix();
+            for s in pattern.row(j) {
+                let i = pattern.column(s);
+                filtered[s] = filter_j * a[s] * constraints[i].filter_matrix();
+                if i == j {
+                    filtered[s] += (Matrix3::identity() - filter_j) * (a[s].trace() / 3.0);
+                }
             }
-            let fill = a[s].trace() / 3.0;
-            block + (Matrix3::identity() - filters[j]) * fill
-        };
-        let mut current = (u32::MAX, Matrix3::zeros());
+        }
         for (value, entry) in self.values.iter_mut().zip(&self.entries) {
-            if current.0 != entry.slot {
-                current = (entry.slot, filtered_block(entry.slot as usize, entry.block_row as usize));
-            }
             let (c, r) = (entry.component as usize / 3, entry.component as usize % 3);
-            *value = current.1[(c, r)];
+            *value = filtered[entry.slot as usize][(c, r)];
         }
     }
 }
@@ -128,6 +130,8 @@ impl LowerTriangle {
 /// A Cholesky factor of the filtered system, kept across steps.
 pub struct LaggedCholesky {
     lower: LowerTriangle,
+    /// The filtered blocks of the last factor, one per stored slot.
+    filtered: Vec<Matrix3<f64>>,
     symbolic: Arc<SymbolicCholesky<u32>>,
     factor: Vec<f64>,
     factor_scratch: MemBuffer,
@@ -152,6 +156,7 @@ impl LaggedCholesky {
         let factor = vec![0.0; symbolic.len_val()];
         let rhs = vec![0.0; lower.dimension];
         Ok(LaggedCholesky {
+            filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
             lower,
             symbolic,
             factor,
@@ -188,7 +193,7 @@ impl LaggedCholesky {
         constraints: &[Constraint],
     ) -> Result<(), CholeskyError> {
         self.current = false;
-        self.lower.fill_filtered(pattern, a, constraints);
+        self.lower.fill_filtered(pattern, a, constraints, &mut self.filtered);
         let lower = &self.lower;
         let matrix = SparseColMatRef::new(lower.symbolic(), &lower.values);
         self.symbolic
@@ -249,6 +254,7 @@ impl Clone for LaggedCholesky {
         let (factor_scratch, solve_scratch) = scratch(&self.symbolic);
         LaggedCholesky {
             lower: self.lower.clone(),
+            filtered: self.filtered.clone(),
             symbolic: Arc::clone(&self.symbolic),
             factor: self.factor.clone(),
             factor_scratch,
