@@ -21,6 +21,9 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::ccd::Hit;
 
+/// Fraction of the thickness below which a contact's shortfall counts as met.
+pub const SATISFIED: f64 = 1e-6;
+
 /// Which elementary pair a contact is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ContactKind {
@@ -108,11 +111,12 @@ impl Points<'_> {
     }
 
     /// Applies contact `c`'s impulse and friction if it needs them; returns
-    /// true if it did.
+    /// true if it did. A deficit that would leave the features short of the
+    /// thickness by less than [`SATISFIED`] of it is round-off, not a need.
     pub fn respond(&mut self, c: &Contact) -> bool {
         let deficit = self.deficit(c);
         let k = self.effective_inverse_mass(c);
-        if deficit <= 0.0 || k == 0.0 {
+        if deficit <= SATISFIED * c.thickness / self.h || k == 0.0 {
             return false;
         }
         let n = c.hit.normal;
