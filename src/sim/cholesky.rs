@@ -19,6 +19,12 @@
 //! system at hand, which then solves in one iteration, and stale factors are
 //! not tried again for [`RETRY_STALE_AFTER`] solves.
 //!
+//! The factor is single precision: a preconditioner need not be exact (the
+//! conjugate gradients run in f64 and stop at the same tolerance), and f32
+//! halves the memory traffic of factor and solves. A system too stiff for it
+//! (the f32 factor fails, or a fresh one needs more than
+//! [`SINGLE_PRECISION_ITERATIONS`]) switches the simulation to f64 factors.
+//!
 //! The symbolic analysis (approximate minimum degree ordering, supernodes) is
 //! done once per cloth from its block pattern. Factor and solve run on one
 //! thread, which on two cores is also the fastest here, and keeps the result
@@ -32,6 +38,8 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{Matrix3, Vector3};
 
+use faer::traits::{ComplexField, RealField};
+
 use super::pcg::Constraint;
 use super::sparse::BlockPattern;
 
@@ -41,6 +49,10 @@ pub const STALE_BUDGET: u32 = 3;
 
 /// Solves to wait after a stale factor failed before trying one again.
 pub const RETRY_STALE_AFTER: u64 = 8;
+
+/// Iterations a fresh single-precision factor may need before the
+/// simulation switches to double-precision factors.
+pub const SINGLE_PRECISION_ITERATIONS: u32 = 4;
 
 /// Why a factor could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -70,7 +82,6 @@ struct LowerTriangle {
     column_start: Vec<u32>,
     row_index: Vec<u32>,
     entries: Vec<LowerEntry>,
-    values: Vec<f64>,
 }
 
 impl LowerTriangle {
@@ -93,38 +104,141 @@ impl LowerTriangle {
                 column_start.push(row_index.len() as u32);
             }
         }
-        let values = vec![0.0; entries.len()];
-        LowerTriangle { dimension: 3 * n, column_start, row_index, entries, values }
+        LowerTriangle { dimension: 3 * n, column_start, row_index, entries }
     }
 
     fn symbolic(&self) -> SymbolicSparseColMatRef<'_, u32> {
         SymbolicSparseColMatRef::new_checked(self.dimension, self.dimension, &self.column_start, None, &self.row_index)
     }
 
-    /// Fills the values with those of `S A S + c (I − S)`, through
-    /// `filtered`, a buffer of one block per stored slot.
-    fn fill_filtered(
-        &mut self,
-        pattern: &BlockPattern,
-        a: &[Matrix3<f64>],
-        constraints: &[Constraint],
-        filtered: &mut [Matrix3<f64>],
-    ) {
-        for j in 0..pattern.rows() {
-            let filter_j = constraints[j].filter_matrix();
-            for s in pattern.row(j) {
-                let i = pattern.column(s);
-                filtered[s] = filter_j * a[s] * constraints[i].filter_matrix();
-                if i == j {
-                    filtered[s] += (Matrix3::identity() - filter_j) * (a[s].trace() / 3.0);
-                }
-            }
-        }
-        for (value, entry) in self.values.iter_mut().zip(&self.entries) {
+    /// The scalar entries of the blocks `filtered` (one per stored slot), in
+    /// the triangle's order, as `T`.
+    fn gather<T: Precision>(&self, filtered: &[Matrix3<f64>], values: &mut [T]) {
+        for (value, entry) in values.iter_mut().zip(&self.entries) {
             let (c, r) = (entry.component as usize / 3, entry.component as usize % 3);
-            *value = filtered[entry.slot as usize][(c, r)];
+            *value = T::from_f64(filtered[entry.slot as usize][(c, r)]);
         }
     }
+}
+
+/// Fills `filtered` (one block per stored slot of `pattern`) with the blocks
+/// of `S A S + c (I − S)`.
+fn filter_blocks(
+    pattern: &BlockPattern,
+    a: &[Matrix3<f64>],
+    constraints: &[Constraint],
+    filtered: &mut [Matrix3<f64>],
+) {
+    for j in 0..pattern.rows() {
+        let filter_j = constraints[j].filter_matrix();
+        for s in pattern.row(j) {
+            let i = pattern.column(s);
+            filtered[s] = filter_j * a[s] * constraints[i].filter_matrix();
+            if i == j {
+                filtered[s] += (Matrix3::identity() - filter_j) * (a[s].trace() / 3.0);
+            }
+        }
+    }
+}
+
+/// A floating-point type a factor can be kept in.
+trait Precision: RealField + ComplexField<Real = Self> + Copy {
+    fn from_f64(x: f64) -> Self;
+    fn to_f64(self) -> f64;
+}
+
+impl Precision for f32 {
+    fn from_f64(x: f64) -> Self {
+        x as f32
+    }
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+}
+
+impl Precision for f64 {
+    fn from_f64(x: f64) -> Self {
+        x
+    }
+    fn to_f64(self) -> f64 {
+        self
+    }
+}
+
+/// The numerical part of a factor in precision `T`, with its work space.
+struct Numeric<T> {
+    values: Vec<T>,
+    factor: Vec<T>,
+    rhs: Vec<T>,
+    factor_scratch: MemBuffer,
+    solve_scratch: MemBuffer,
+}
+
+impl<T: Precision> Numeric<T> {
+    fn new(symbolic: &SymbolicCholesky<u32>, lower: &LowerTriangle) -> Self {
+        Numeric {
+            values: vec![T::from_f64(0.0); lower.entries.len()],
+            factor: vec![T::from_f64(0.0); symbolic.len_val()],
+            rhs: vec![T::from_f64(0.0); lower.dimension],
+            factor_scratch: MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<T>(Par::Seq, Default::default())),
+            solve_scratch: MemBuffer::new(symbolic.solve_in_place_scratch::<T>(1, Par::Seq)),
+        }
+    }
+
+    /// Factors the filtered blocks.
+    fn factor(
+        &mut self,
+        symbolic: &SymbolicCholesky<u32>,
+        lower: &LowerTriangle,
+        filtered: &[Matrix3<f64>],
+    ) -> Result<(), CholeskyError> {
+        lower.gather(filtered, &mut self.values);
+        let matrix = SparseColMatRef::new(lower.symbolic(), &self.values);
+        symbolic
+            .factorize_numeric_llt(
+                &mut self.factor,
+                matrix,
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut self.factor_scratch),
+                Default::default(),
+            )
+            .map(|_| ())
+            .map_err(|_| CholeskyError::NotPositiveDefinite)
+    }
+
+    /// `z = M⁻¹ r` with the factor.
+    fn apply(&mut self, symbolic: &SymbolicCholesky<u32>, r: &[Vector3<f64>], z: &mut [Vector3<f64>]) {
+        for (chunk, ri) in self.rhs.chunks_exact_mut(3).zip(r) {
+            for (value, &component) in chunk.iter_mut().zip(ri.iter()) {
+                *value = T::from_f64(component);
+            }
+        }
+        let n = self.rhs.len();
+        LltRef::new(symbolic, &self.factor).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1),
+            Par::Seq,
+            MemStack::new(&mut self.solve_scratch),
+        );
+        for (zi, chunk) in z.iter_mut().zip(self.rhs.chunks_exact(3)) {
+            *zi = Vector3::new(chunk[0].to_f64(), chunk[1].to_f64(), chunk[2].to_f64());
+        }
+    }
+
+    fn duplicate(&self, symbolic: &SymbolicCholesky<u32>, lower: &LowerTriangle) -> Self {
+        let mut copy = Numeric::new(symbolic, lower);
+        copy.values.clone_from(&self.values);
+        copy.factor.clone_from(&self.factor);
+        copy
+    }
+}
+
+/// The numerical factor in the precision the system allows.
+enum Factor {
+    Single(Numeric<f32>),
+    Double(Numeric<f64>),
 }
 
 /// A Cholesky factor of the filtered system, kept across steps.
@@ -133,10 +247,7 @@ pub struct LaggedCholesky {
     /// The filtered blocks of the last factor, one per stored slot.
     filtered: Vec<Matrix3<f64>>,
     symbolic: Arc<SymbolicCholesky<u32>>,
-    factor: Vec<f64>,
-    factor_scratch: MemBuffer,
-    solve_scratch: MemBuffer,
-    rhs: Vec<f64>,
+    numeric: Factor,
     current: bool,
     refactors: u64,
     /// Solves started so far, and the solve at which a stale factor last failed.
@@ -151,18 +262,12 @@ impl LaggedCholesky {
         let symbolic =
             factorize_symbolic_cholesky(lower.symbolic(), Side::Lower, SymmetricOrdering::Amd, Default::default())
                 .map_err(|e| CholeskyError::Analysis(format!("{e:?}")))?;
-        let symbolic = Arc::new(symbolic);
-        let (factor_scratch, solve_scratch) = scratch(&symbolic);
-        let factor = vec![0.0; symbolic.len_val()];
-        let rhs = vec![0.0; lower.dimension];
+        let numeric = Factor::Single(Numeric::new(&symbolic, &lower));
         Ok(LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
             lower,
-            symbolic,
-            factor,
-            factor_scratch,
-            solve_scratch,
-            rhs,
+            symbolic: Arc::new(symbolic),
+            numeric,
             current: false,
             refactors: 0,
             solves: 0,
@@ -183,9 +288,10 @@ impl LaggedCholesky {
         self.stale_failed_at = Some(self.solves);
     }
 
-    /// Factors `S A S + c (I − S)` for block values `a` on `pattern`.
-    /// On failure the old factor is dropped and the caller must precondition
-    /// otherwise until a later factor succeeds.
+    /// Factors `S A S + c (I − S)` for block values `a` on `pattern`, in
+    /// single precision unless the system has needed double. On failure the
+    /// old factor is dropped and the caller must precondition otherwise until
+    /// a later factor succeeds.
     pub fn refactor(
         &mut self,
         pattern: &BlockPattern,
@@ -193,23 +299,41 @@ impl LaggedCholesky {
         constraints: &[Constraint],
     ) -> Result<(), CholeskyError> {
         self.current = false;
-        self.lower.fill_filtered(pattern, a, constraints, &mut self.filtered);
-        let lower = &self.lower;
-        let matrix = SparseColMatRef::new(lower.symbolic(), &lower.values);
-        self.symbolic
-            .factorize_numeric_llt(
-                &mut self.factor,
-                matrix,
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut self.factor_scratch),
-                Default::default(),
-            )
-            .map_err(|_| CholeskyError::NotPositiveDefinite)?;
+        filter_blocks(pattern, a, constraints, &mut self.filtered);
+        let (symbolic, lower, filtered) = (&*self.symbolic, &self.lower, &self.filtered);
+        if let Factor::Single(single) = &mut self.numeric {
+            if single.factor(symbolic, lower, filtered).is_ok() {
+                self.current = true;
+                self.refactors += 1;
+                return Ok(());
+            }
+            self.use_double_precision();
+        }
+        if let Factor::Double(double) = &mut self.numeric {
+            double.factor(&self.symbolic, &self.lower, &self.filtered)?;
+        }
         self.current = true;
         self.refactors += 1;
         Ok(())
+    }
+
+    /// Notes the iterations a solve with a fresh factor took: a single-precision
+    /// factor that needed more than [`SINGLE_PRECISION_ITERATIONS`] is too coarse
+    /// for this system, and later factors are double precision.
+    pub fn fresh_factor_needed(&mut self, iterations: u32) {
+        if iterations > SINGLE_PRECISION_ITERATIONS && self.is_single_precision() {
+            self.use_double_precision();
+            self.current = false;
+        }
+    }
+
+    /// True while factors are kept in single precision.
+    pub fn is_single_precision(&self) -> bool {
+        matches!(self.numeric, Factor::Single(_))
+    }
+
+    fn use_double_precision(&mut self) {
+        self.numeric = Factor::Double(Numeric::new(&self.symbolic, &self.lower));
     }
 
     /// True when a factor is available to [`apply`](Self::apply).
@@ -224,42 +348,24 @@ impl LaggedCholesky {
 
     /// `z = M⁻¹ r` with the current factor (unfiltered: the caller filters).
     pub fn apply(&mut self, r: &[Vector3<f64>], z: &mut [Vector3<f64>]) {
-        for (chunk, ri) in self.rhs.chunks_exact_mut(3).zip(r) {
-            chunk.copy_from_slice(ri.as_slice());
-        }
-        let n = self.rhs.len();
-        let factor = LltRef::new(&self.symbolic, &self.factor);
-        factor.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut self.solve_scratch),
-        );
-        for (zi, chunk) in z.iter_mut().zip(self.rhs.chunks_exact(3)) {
-            *zi = Vector3::new(chunk[0], chunk[1], chunk[2]);
+        match &mut self.numeric {
+            Factor::Single(single) => single.apply(&self.symbolic, r, z),
+            Factor::Double(double) => double.apply(&self.symbolic, r, z),
         }
     }
 }
 
-/// Work space of a factor and of a solve with `symbolic`.
-fn scratch(symbolic: &SymbolicCholesky<u32>) -> (MemBuffer, MemBuffer) {
-    (
-        MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())),
-        MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq)),
-    )
-}
-
 impl Clone for LaggedCholesky {
     fn clone(&self) -> Self {
-        let (factor_scratch, solve_scratch) = scratch(&self.symbolic);
+        let (symbolic, lower) = (&*self.symbolic, &self.lower);
         LaggedCholesky {
-            lower: self.lower.clone(),
+            lower: lower.clone(),
             filtered: self.filtered.clone(),
             symbolic: Arc::clone(&self.symbolic),
-            factor: self.factor.clone(),
-            factor_scratch,
-            solve_scratch,
-            rhs: self.rhs.clone(),
+            numeric: match &self.numeric {
+                Factor::Single(single) => Factor::Single(single.duplicate(symbolic, lower)),
+                Factor::Double(double) => Factor::Double(double.duplicate(symbolic, lower)),
+            },
             current: self.current,
             refactors: self.refactors,
             solves: self.solves,
@@ -272,7 +378,8 @@ impl std::fmt::Debug for LaggedCholesky {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("LaggedCholesky")
             .field("dimension", &self.lower.dimension)
-            .field("factor_values", &self.factor.len())
+            .field("factor_values", &self.symbolic.len_val())
+            .field("single_precision", &self.is_single_precision())
             .field("current", &self.current)
             .field("refactors", &self.refactors)
             .finish()
@@ -342,11 +449,20 @@ mod tests {
             si * a[s] * sj + fill
         });
         let r: Vec<Vector3<f64>> = (0..12).map(|i| Vector3::new(i as f64, 1.0, -(i as f64) * 0.5)).collect();
-        let mut z = vec![Vector3::zeros(); 12];
-        cholesky.apply(&r, &mut z);
         let expected = filtered.cholesky().unwrap().solve(&flatten(&r));
-        let error = (flatten(&z) - &expected).norm() / expected.norm();
-        assert!(error < 1e-10, "relative error {error:e}");
+        let error = |cholesky: &mut LaggedCholesky| {
+            let mut z = vec![Vector3::zeros(); 12];
+            cholesky.apply(&r, &mut z);
+            (flatten(&z) - &expected).norm() / expected.norm()
+        };
+        // Single precision loses about the condition number (here ~1e4) times
+        // f32's 6e-8.
+        let single = error(&mut cholesky);
+        assert!(single < 1e-3, "single precision: relative error {single:e}");
+        cholesky.use_double_precision();
+        cholesky.refactor(&pattern, &a, &constraints).unwrap();
+        let double = error(&mut cholesky);
+        assert!(double < 1e-12, "double precision: relative error {double:e}");
     }
 
     /// After a stale factor fails, stale factors are skipped for

@@ -104,8 +104,10 @@ impl Preconditioner {
     /// Solves `A x = b` under `constraints` like [`solve`], preparing the
     /// preconditioner first: a multigrid hierarchy is rebuilt for `a`; a kept
     /// Cholesky factor is tried on a small budget and rebuilt if that is not
-    /// enough, the solve continuing from where the try left `x`; block Jacobi
-    /// stands in for a factor that cannot be built. Returns the outcome
+    /// enough, the solve continuing from where the try left `x` (and a fresh
+    /// factor that still needs several iterations moves the simulation to
+    /// double-precision factors); block Jacobi stands in for a factor that
+    /// cannot be built. Returns the outcome
     /// (iterations summed over tries) and the number of factors built.
     pub fn solve(
         &mut self,
@@ -136,6 +138,9 @@ impl Preconditioner {
                 let preconditioning =
                     if factored { Preconditioning::Cholesky(cholesky) } else { Preconditioning::BlockJacobi };
                 let report = solve(system, x, settings, preconditioning, ws);
+                if factored {
+                    cholesky.fresh_factor_needed(report.iterations);
+                }
                 (PcgReport { iterations: spent + report.iterations, ..report }, u32::from(factored))
             }
         }
@@ -474,7 +479,7 @@ mod tests {
         assert_eq!(report.iterations, 0, "a residual of 1e-9 of the typical size is already converged");
     }
 
-    /// The kept Cholesky factor: a fresh one solves in one iteration; kept
+    /// The kept Cholesky factor: a fresh one solves in one or two; kept
     /// for a slightly different matrix it still converges within its budget
     /// without a new factor; for a very different one it is rebuilt, and the
     /// answer matches a dense solve either way.
@@ -497,7 +502,11 @@ mod tests {
             assert!(report.converged && error < 1e-6 * exact.norm(), "{report:?}, error {error}");
             (report.iterations, factors)
         };
-        assert_eq!(run(&a), (1, 1), "a fresh factor solves in one iteration");
+        // A single-precision factor is good to ~1e-4 here: two iterations
+        // reach 1e-8.
+        let (iterations, factors) = run(&a);
+        assert_eq!(factors, 1);
+        assert!(iterations <= 2, "a fresh factor solves in one or two iterations: {iterations}");
         let nudged: Vec<_> = a.iter().map(|m| m * 1.0001).collect();
         let (iterations, factors) = run(&nudged);
         assert_eq!(factors, 0, "a factor of a nearly equal matrix is kept");
@@ -508,6 +517,29 @@ mod tests {
         }
         let (iterations, factors) = run(&changed);
         assert_eq!(factors, 1, "a factor of a very different matrix is rebuilt");
-        assert_eq!(iterations, STALE_BUDGET + 1, "the stale try, then one iteration");
+        assert!(iterations <= STALE_BUDGET + 2, "the stale try, then one or two iterations: {iterations}");
+    }
+
+    /// A system too stiff for a single-precision factor (masses 1e-9 of the
+    /// couplings) is still solved to the tolerance, and moves the simulation
+    /// to double-precision factors.
+    #[test]
+    fn stiff_systems_get_double_precision_factors() {
+        let n = 30;
+        let (pattern, mut a, b) = ring_system(n);
+        for i in 0..n {
+            a[pattern.diagonal(i)] -= Matrix3::identity() * (1.0 - 1e-9);
+        }
+        let settings =
+            PcgSettings { tolerance: 1e-10, max_iterations: 1000, preconditioner: PreconditionerKind::Cholesky };
+        let free = vec![Constraint::Free; n];
+        let mut preconditioner = Preconditioner::new(settings.preconditioner, &pattern, &[]).unwrap();
+        let mut x = vec![Vector3::zeros(); n];
+        let system =
+            FilteredSystem { pattern: &pattern, a: &a, b: &b, typical: &b, constraints: &free, positions: &[] };
+        let (report, _) = preconditioner.solve(system, &mut x, settings, &mut PcgWorkspace::default());
+        assert!(report.converged, "{report:?}");
+        let Preconditioner::Cholesky(cholesky) = &preconditioner else { unreachable!() };
+        assert!(!cholesky.is_single_precision(), "{report:?}");
     }
 }
