@@ -352,6 +352,19 @@ mod tests {
         m
     }
 
+    /// A block-Jacobi solve of `A x = b` with every row free.
+    fn solve_free(
+        pattern: &BlockPattern,
+        a: &[Matrix3<f64>],
+        b: &[Vector3<f64>],
+        x: &mut [Vector3<f64>],
+        settings: PcgSettings,
+    ) -> PcgReport {
+        let (typical, free) = (vec![Vector3::zeros(); b.len()], vec![Constraint::Free; b.len()]);
+        let system = FilteredSystem { pattern, a, b, typical: &typical, constraints: &free, positions: &[] };
+        solve(system, x, settings, Preconditioning::BlockJacobi, &mut PcgWorkspace::default())
+    }
+
     const TIGHT: PcgSettings =
         PcgSettings { tolerance: 1e-12, max_iterations: 1000, preconditioner: PreconditionerKind::BlockJacobi };
 
@@ -359,20 +372,7 @@ mod tests {
     fn pcg_matches_a_dense_cholesky_solve() {
         let (pattern, a, b) = ring_system(20);
         let mut x = vec![Vector3::zeros(); 20];
-        let report = solve(
-            FilteredSystem {
-                pattern: &pattern,
-                a: &a,
-                b: &b,
-                typical: &[Vector3::zeros(); 20],
-                constraints: &[Constraint::Free; 20],
-                positions: &[],
-            },
-            &mut x,
-            TIGHT,
-            Preconditioning::BlockJacobi,
-            &mut PcgWorkspace::default(),
-        );
+        let report = solve_free(&pattern, &a, &b, &mut x, TIGHT);
         assert!(report.converged, "{report:?}");
         let rhs = DVector::from_iterator(60, b.iter().flat_map(|v| v.iter().copied()));
         let exact = dense(&pattern, &a).cholesky().unwrap().solve(&rhs);
@@ -425,38 +425,12 @@ mod tests {
         let mut x = vec![Vector3::zeros(); 40];
         let settings =
             PcgSettings { tolerance: 1e-2, max_iterations: 1000, preconditioner: PreconditionerKind::BlockJacobi };
-        let report = solve(
-            FilteredSystem {
-                pattern: &pattern,
-                a: &a,
-                b: &b,
-                typical: &[Vector3::zeros(); 40],
-                constraints: &[Constraint::Free; 40],
-                positions: &[],
-            },
-            &mut x,
-            settings,
-            Preconditioning::BlockJacobi,
-            &mut PcgWorkspace::default(),
-        );
+        let report = solve_free(&pattern, &a, &b, &mut x, settings);
         assert!(report.converged && report.relative_residual <= 1e-2);
         let capped =
             PcgSettings { tolerance: 1e-14, max_iterations: 2, preconditioner: PreconditionerKind::BlockJacobi };
         let mut x = vec![Vector3::zeros(); 40];
-        let report = solve(
-            FilteredSystem {
-                pattern: &pattern,
-                a: &a,
-                b: &b,
-                typical: &[Vector3::zeros(); 40],
-                constraints: &[Constraint::Free; 40],
-                positions: &[],
-            },
-            &mut x,
-            capped,
-            Preconditioning::BlockJacobi,
-            &mut PcgWorkspace::default(),
-        );
+        let report = solve_free(&pattern, &a, &b, &mut x, capped);
         assert_eq!(report.iterations, 2);
         assert!(!report.converged);
     }
