@@ -25,68 +25,28 @@
 
 pub mod bvh;
 pub mod ccd;
+mod detect;
 pub mod features;
 pub mod geometry;
 pub mod obstacles;
 pub mod response;
+mod zones;
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use self::bvh::{Box3, SweptBvh};
-use self::ccd::{Hit, Path, edge_edge_within, vertex_triangle_within};
+use self::detect::{Detection, Job, Scope};
 use self::features::Ownership;
 use self::obstacles::Obstacles;
-use self::response::{Contact, ContactKind, Points, Zones, rigidify};
+use self::response::{Contact, Points, Zones};
 use super::motion::Placement;
 
-/// Candidate jobs per parallel chunk of the narrow phase.
-const JOBS_PER_CHUNK: usize = 512;
 /// Influence below which a contact is forgotten.
 const FORGOTTEN: f64 = 1e-3;
-/// Distance at which impact zones and the final verdict count two features
-/// as touching, m: a true crossing, not a thickness violation. A rigid zone
-/// keeps its members' distances, so pairs inside it that start apart stay
-/// apart; with the thickness instead, a pair that started closer than it
-/// would be reported forever.
-const CROSSING_GAP: f64 = 1e-6;
-
-/// Which candidate pairs a detection tests.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Scope {
-    /// Every pair the broad phase finds.
-    All,
-    /// Only pairs with a point whose path changed since the last detection:
-    /// the others would give the same answer as last time (no contact, or one
-    /// that needed nothing).
-    Moved,
-}
-
-/// What a detection looks for.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Detection {
-    /// Crossings within the step and features closer than the thickness at
-    /// its ends: what the impulse passes answer.
-    Proximity,
-    /// Only features that actually meet during the step: what the impact
-    /// zones must remove.
-    Crossings,
-}
-
-impl Detection {
-    /// The distance within which features count as touching, m, for a
-    /// contact that must keep `thickness`.
-    fn reach(self, thickness: f64) -> f64 {
-        match self {
-            Detection::Proximity => thickness,
-            Detection::Crossings => CROSSING_GAP,
-        }
-    }
-}
 
 /// The collision constants of a scene (PAPER Fig. 10c).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -188,19 +148,6 @@ pub struct ParticleCollision {
     pub friction: f64,
     /// Prescribed motion of a pinned particle (`None`: free).
     pub pinned: Option<Placement>,
-}
-
-/// A unit of narrow-phase work.
-#[derive(Clone, Copy, Debug)]
-enum Job {
-    /// Two cloth triangles.
-    Cloth(u32, u32),
-    /// A cloth triangle and a mesh-collider triangle.
-    Mesh(u32, u32),
-    /// A cloth triangle and a sharp obstacle vertex.
-    Vertex(u32, u32),
-    /// A cloth triangle and a sharp obstacle edge.
-    Edge(u32, u32),
 }
 
 /// The collision pipeline of one cloth: topology, hierarchy, obstacles and
@@ -347,105 +294,6 @@ impl CollisionPipeline {
         ws.moved.resize(ws.start.len(), false);
     }
 
-    /// Boxes, broad phase and narrow phase over `scope`: fills the
-    /// workspace's contacts.
-    fn detect(&mut self, detection: Detection, scope: Scope, report: &mut CollisionReport) {
-        let clock = Instant::now();
-        let n = self.particles.len();
-        let ws = &mut self.ws;
-        ws.displacement.clear();
-        ws.displacement.extend(ws.start.iter().zip(&ws.end).map(|(a, b)| (b - a).norm()));
-        ws.node_box.clear();
-        for i in 0..ws.start.len() {
-            let margin = self.particles.get(i).map_or(0.0, |p| p.thickness);
-            ws.node_box.push(Box3::empty().with(&ws.start[i]).with(&ws.end[i]).grown(margin));
-        }
-        ws.triangle_box.clear();
-        ws.triangle_box.extend(self.triangles.iter().map(|t| {
-            let [a, b, c] = t.map(|v| ws.node_box[v as usize]);
-            a.union(&b).union(&c)
-        }));
-        match &mut self.bvh {
-            Some(bvh) => bvh.update(&ws.triangle_box),
-            None => self.bvh = Some(SweptBvh::new(&ws.triangle_box)),
-        }
-        report.refit += clock.elapsed();
-
-        let clock = Instant::now();
-        let Some(bvh) = self.bvh.as_mut() else { return };
-        ws.jobs.clear();
-        if self.self_collision.iter().any(|&s| s) || self.self_collision.len() > 1 {
-            bvh.self_pairs(&mut ws.pairs);
-            let (garment, self_collision) = (&self.triangle_garment, &self.self_collision);
-            ws.jobs.extend(ws.pairs.iter().filter_map(|&(a, b)| {
-                let (ga, gb) = (garment[a as usize], garment[b as usize]);
-                (ga != gb || self_collision[ga as usize]).then_some(Job::Cloth(a, b))
-            }));
-        }
-        let o = &self.obstacles;
-        for (t, tri) in o.triangles.iter().enumerate() {
-            let [a, b, c] = tri.map(|v| ws.node_box[n + v as usize]);
-            bvh.overlapping(&a.union(&b).union(&c), &mut ws.hits);
-            ws.jobs.extend(ws.hits.iter().map(|&h| Job::Mesh(h, t as u32)));
-        }
-        for &v in &o.feature_vertices {
-            bvh.overlapping(&ws.node_box[n + v as usize], &mut ws.hits);
-            ws.jobs.extend(ws.hits.iter().map(|&h| Job::Vertex(h, v)));
-        }
-        for (e, [a, b]) in o.feature_edges.iter().enumerate() {
-            bvh.overlapping(&ws.node_box[n + *a as usize].union(&ws.node_box[n + *b as usize]), &mut ws.hits);
-            ws.jobs.extend(ws.hits.iter().map(|&h| Job::Edge(h, e as u32)));
-        }
-        if scope == Scope::Moved {
-            let (moved, triangles, o) = (&ws.moved, &self.triangles, &self.obstacles);
-            let cloth_moved = |t: u32| triangles[t as usize].iter().any(|&v| moved[v as usize]);
-            ws.jobs.retain(|job| match *job {
-                Job::Cloth(a, b) => cloth_moved(a) || cloth_moved(b),
-                Job::Mesh(t, _) | Job::Vertex(t, _) | Job::Edge(t, _) => cloth_moved(t),
-            });
-            debug_assert!(o.is_empty() || !moved[n..].iter().any(|&m| m), "obstacles never move in a response");
-        }
-        ws.moved.fill(false);
-        report.pairs = ws.jobs.len() as u32;
-        report.broad += clock.elapsed();
-
-        let clock = Instant::now();
-        let chunk_count = ws.jobs.len().div_ceil(JOBS_PER_CHUNK);
-        ws.chunks.resize_with(chunk_count.max(ws.chunks.len()), || (Vec::new(), 0, 0));
-        let narrow = Narrow {
-            pipeline_triangles: &self.triangles,
-            ownership: &self.ownership,
-            obstacles: o,
-            particles: &self.particles,
-            cloth_count: n,
-            start: &ws.start,
-            end: &ws.end,
-            displacement: &ws.displacement,
-            node_box: &ws.node_box,
-            triangle_box: &ws.triangle_box,
-            detection,
-            counting: report.passes == 0 && detection == Detection::Proximity,
-        };
-        ws.jobs.par_chunks(JOBS_PER_CHUNK).zip(ws.chunks[..chunk_count].par_iter_mut()).for_each(
-            |(jobs, (found, tests, without))| {
-                found.clear();
-                (*tests, *without) = (0, 0);
-                for job in jobs {
-                    narrow.run(*job, found, tests, without);
-                }
-            },
-        );
-        ws.contacts.clear();
-        for (found, tests, without) in &ws.chunks[..chunk_count] {
-            ws.contacts.extend_from_slice(found);
-            if narrow.counting {
-                report.tests += tests;
-                report.tests_without_ownership += without;
-            }
-        }
-        report.narrow += clock.elapsed();
-    }
-
     /// One pass of impulses over every contact, then sweeps over the
     /// constraint set. Returns the constraint set's size, and whether any
     /// contact needed an impulse.
@@ -486,234 +334,6 @@ impl CollisionPipeline {
             }
         }
         (set.len() as u32, acted)
-    }
-
-    /// Rigid impact zones until nothing crosses (or the rounds run out).
-    /// Returns the rounds used and the crossings left.
-    fn impact_zones(&mut self, window: crate::sim::contact::StepWindow, report: &mut CollisionReport) -> (u32, u32) {
-        let total = self.ws.start.len();
-        self.ws.zones.reset(total);
-        let mut round = 0;
-        loop {
-            self.detect(Detection::Crossings, if round == 0 { Scope::All } else { Scope::Moved }, report);
-            let crossings = std::mem::take(&mut self.ws.contacts);
-            if crossings.is_empty() || round == self.settings.zone_rounds {
-                let left = crossings.len() as u32;
-                self.ws.contacts = crossings;
-                return (round, left);
-            }
-            round += 1;
-            let clock = Instant::now();
-            for c in &crossings {
-                for k in 1..4 {
-                    if c.hit.weights[k] != 0.0 {
-                        self.ws.zones.join(c.nodes[0], c.nodes[k]);
-                    }
-                }
-            }
-            let mut members: HashMap<u32, Vec<u32>> = HashMap::new();
-            let roots: std::collections::BTreeSet<u32> =
-                crossings.iter().map(|c| self.ws.zones.find(c.nodes[0])).collect();
-            for i in 0..total as u32 {
-                let root = self.ws.zones.find(i);
-                if roots.contains(&root) {
-                    members.entry(root).or_default().push(i);
-                }
-            }
-            for root in roots {
-                let zone = &members[&root];
-                let kinematic = zone.iter().find_map(|&i| self.kinematic(i));
-                let ws = &mut self.ws;
-                let mut points = Points {
-                    start: &ws.start,
-                    end: &mut ws.end,
-                    velocity: &mut ws.velocity,
-                    inverse_mass: &ws.inverse_mass,
-                    moved: &mut ws.moved,
-                    h: window.h(),
-                };
-                let carry = kinematic.map(|placement| {
-                    let step = placement.world_from_local(window.t1) * placement.world_from_local(window.t0).inverse();
-                    move |p: &Vector3<f64>| (step * nalgebra::Point3::from(*p)).coords
-                });
-                rigidify(&mut points, zone, carry.as_ref().map(|f| f as &dyn Fn(&Vector3<f64>) -> Vector3<f64>));
-            }
-            report.response += clock.elapsed();
-            self.ws.contacts = crossings;
-        }
-    }
-
-    /// The prescribed motion of point `i`, if it has one (pinned particle or
-    /// obstacle vertex).
-    fn kinematic(&self, i: u32) -> Option<Placement> {
-        match self.particles.get(i as usize) {
-            Some(p) => p.pinned,
-            None => {
-                let o = &self.obstacles;
-                let body = o.vertex_collider[i as usize - self.particles.len()];
-                Some(o.bodies[body as usize].placement)
-            }
-        }
-    }
-}
-
-/// Everything the narrow phase reads.
-struct Narrow<'a> {
-    pipeline_triangles: &'a [[u32; 3]],
-    ownership: &'a Ownership,
-    obstacles: &'a Obstacles,
-    particles: &'a [ParticleCollision],
-    cloth_count: usize,
-    start: &'a [Vector3<f64>],
-    end: &'a [Vector3<f64>],
-    displacement: &'a [f64],
-    node_box: &'a [Box3],
-    triangle_box: &'a [Box3],
-    detection: Detection,
-    /// Whether to count the tests without ownership too (first detection of
-    /// a step only: the count costs as much as a cheap test).
-    counting: bool,
-}
-
-impl Narrow<'_> {
-    fn path(&self, i: u32) -> Path {
-        Path { start: self.start[i as usize], end: self.end[i as usize] }
-    }
-
-    /// The distance a contact between features of `nodes` must keep, m.
-    fn thickness(&self, nodes: &[u32]) -> f64 {
-        nodes.iter().filter_map(|&i| self.particles.get(i as usize)).map(|p| p.thickness).fold(0.0, f64::max)
-    }
-
-    /// Whether a hit is what this detection looks for.
-    fn wanted(&self, hit: &Hit) -> bool {
-        hit.crossing || self.detection != Detection::Crossings
-    }
-
-    /// The obstacle's friction if it names one, else the mean of the cloth
-    /// particles' fabrics.
-    fn friction(&self, nodes: &[u32], body: Option<u32>) -> f64 {
-        let (sum, count) = nodes
-            .iter()
-            .filter_map(|&i| self.particles.get(i as usize))
-            .fold((0.0, 0), |(s, n), p| (s + p.friction, n + 1));
-        body.and_then(|b| self.obstacles.bodies[b as usize].friction).unwrap_or(sum / count.max(1) as f64)
-    }
-
-    /// The obstacle body of a point, if it is an obstacle vertex.
-    fn body(&self, node: u32) -> Option<u32> {
-        (node as usize).checked_sub(self.cloth_count).map(|o| self.obstacles.vertex_collider[o])
-    }
-
-    /// Vertex `p` against triangle `tri` (point indices): culled by box and by
-    /// the start distance, else tested.
-    fn vertex_triangle(&self, p: u32, tri: [u32; 3], tri_box: &Box3, found: &mut Vec<Contact>, tests: &mut u64) {
-        if tri.contains(&p) || !self.node_box[p as usize].overlaps(tri_box) {
-            return;
-        }
-        *tests += 1;
-        let thickness = self.thickness(&[p, tri[0], tri[1], tri[2]]);
-        let touching = self.detection.reach(thickness);
-        let travel =
-            self.displacement[p as usize] + tri.iter().map(|&v| self.displacement[v as usize]).fold(0.0, f64::max);
-        let [pa, pb, pc] = tri.map(|v| self.path(v));
-        let hit = vertex_triangle_within(&self.path(p), &pa, &pb, &pc, touching, travel);
-        if let Some(hit) = hit.filter(|h| self.wanted(h)) {
-            let nodes = [p, tri[0], tri[1], tri[2]];
-            let body = nodes.iter().find_map(|&i| self.body(i));
-            let friction = self.friction(&nodes, body);
-            found.push(Contact { kind: ContactKind::VertexTriangle, nodes, hit, thickness, friction });
-        }
-    }
-
-    /// Edge `e1` against edge `e2`: culled by box and distance, else tested.
-    fn edge_edge(&self, e1: [u32; 2], e2: [u32; 2], found: &mut Vec<Contact>, tests: &mut u64) {
-        if e1.iter().any(|v| e2.contains(v)) {
-            return;
-        }
-        let box_of = |e: [u32; 2]| self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize]);
-        if !box_of(e1).overlaps(&box_of(e2)) {
-            return;
-        }
-        *tests += 1;
-        let nodes = [e1[0], e1[1], e2[0], e2[1]];
-        let thickness = self.thickness(&nodes);
-        let touching = self.detection.reach(thickness);
-        let travel = |e: [u32; 2]| self.displacement[e[0] as usize].max(self.displacement[e[1] as usize]);
-        let [pa, pb, pc, pd] = nodes.map(|v| self.path(v));
-        let hit = edge_edge_within(&pa, &pb, &pc, &pd, touching, travel(e1) + travel(e2));
-        if let Some(hit) = hit.filter(|h| self.wanted(h)) {
-            let body = nodes.iter().find_map(|&i| self.body(i));
-            let friction = self.friction(&nodes, body);
-            found.push(Contact { kind: ContactKind::EdgeEdge, nodes, hit, thickness, friction });
-        }
-    }
-
-    /// Feature pairs of two triangles passing the box test when every vertex
-    /// and edge of both is tested (no representative triangles).
-    fn feature_tests_without_ownership(&self, t1: [u32; 3], box1: &Box3, t2: [u32; 3], box2: &Box3) -> u64 {
-        let box_of = |e: [u32; 2]| self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize]);
-        let vt = |p: u32, tri: [u32; 3], b: &Box3| !tri.contains(&p) && self.node_box[p as usize].overlaps(b);
-        let vertices =
-            t1.iter().filter(|&&p| vt(p, t2, box2)).count() + t2.iter().filter(|&&p| vt(p, t1, box1)).count();
-        let edges = (0..3)
-            .flat_map(|k1| (0..3).map(move |k2| ([t1[k1], t1[(k1 + 1) % 3]], [t2[k2], t2[(k2 + 1) % 3]])))
-            .filter(|(e1, e2)| !e1.iter().any(|v| e2.contains(v)) && box_of(*e1).overlaps(&box_of(*e2)))
-            .count();
-        (vertices + edges) as u64
-    }
-
-    /// Runs one job, appending contacts; counts the feature pairs that pass
-    /// the box test, with representative triangles and without.
-    fn run(&self, job: Job, found: &mut Vec<Contact>, tests: &mut u64, without: &mut u64) {
-        let cloth = |t: u32| self.pipeline_triangles[t as usize];
-        let edge = |tri: [u32; 3], k: usize| [tri[k], tri[(k + 1) % 3]];
-        let offset = self.cloth_count as u32;
-        match job {
-            Job::Cloth(t1, t2) | Job::Mesh(t1, t2) => {
-                let is_mesh = matches!(job, Job::Mesh(..));
-                let tri1 = cloth(t1);
-                let (tri2, owner2, box2) = if is_mesh {
-                    let o = self.obstacles.triangles[t2 as usize].map(|v| v + offset);
-                    let [a, b, c] = o.map(|v| self.node_box[v as usize]);
-                    (o, &self.obstacles.ownership, a.union(&b).union(&c))
-                } else {
-                    (cloth(t2), self.ownership, self.triangle_box[t2 as usize])
-                };
-                let box1 = self.triangle_box[t1 as usize];
-                if self.counting {
-                    *without += self.feature_tests_without_ownership(tri1, &box1, tri2, &box2);
-                }
-                for k in self.ownership.vertices(t1 as usize) {
-                    self.vertex_triangle(tri1[k], tri2, &box2, found, tests);
-                }
-                for k in owner2.vertices(t2 as usize) {
-                    self.vertex_triangle(tri2[k], tri1, &box1, found, tests);
-                }
-                for k1 in self.ownership.edges(t1 as usize) {
-                    for k2 in owner2.edges(t2 as usize) {
-                        self.edge_edge(edge(tri1, k1), edge(tri2, k2), found, tests);
-                    }
-                }
-            }
-            Job::Vertex(t, v) => {
-                *without += u64::from(
-                    self.counting && self.node_box[(v + offset) as usize].overlaps(&self.triangle_box[t as usize]),
-                );
-                self.vertex_triangle(v + offset, cloth(t), &self.triangle_box[t as usize], found, tests);
-            }
-            Job::Edge(t, e) => {
-                let obstacle = self.obstacles.feature_edges[e as usize].map(|v| v + offset);
-                let box_of = |e: [u32; 2]| self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize]);
-                if self.counting {
-                    *without +=
-                        (0..3).filter(|&k| box_of(edge(cloth(t), k)).overlaps(&box_of(obstacle))).count() as u64;
-                }
-                for k in self.ownership.edges(t as usize) {
-                    self.edge_edge(edge(cloth(t), k), obstacle, found, tests);
-                }
-            }
-        }
     }
 }
 
