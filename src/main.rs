@@ -64,6 +64,9 @@ enum Command {
     /// Measure simulation speed (ms per frame, per stage) with strain, on the
     /// standard scenes.
     Bench {
+        /// `accuracy SCENE`: speed against error instead of the suites.
+        #[command(subcommand)]
+        sweep: Option<BenchSweep>,
         /// Which cases: the solver on drape_sphere, the collision scenes, or all.
         #[arg(long, value_enum, default_value = "core")]
         suite: bench::Suite,
@@ -71,6 +74,31 @@ enum Command {
         #[arg(long)]
         frames: Option<usize>,
         /// Folder for bench.csv and bench.md.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+/// Sweeps of `drape bench`.
+#[derive(Subcommand)]
+enum BenchSweep {
+    /// Speed against error: run SCENE at each steps-per-frame and tolerance,
+    /// compare each run with a reference of 16x smaller steps and tolerance
+    /// 1e-10 (RMS error over the rest diagonal, over the 0.5 s after first
+    /// contact and at the end), and print the table with the Pareto front.
+    Accuracy {
+        /// The scene file.
+        scene: PathBuf,
+        /// Steps per frame to try.
+        #[arg(long, value_delimiter = ',', default_value = "1,2,4,8")]
+        steps: Vec<u32>,
+        /// Linear-solver tolerances to try.
+        #[arg(long, value_delimiter = ',', default_value = "1e-2,1e-3,1e-4")]
+        tolerances: Vec<f64>,
+        /// Frames per run (default: the scene's full range).
+        #[arg(long)]
+        frames: Option<usize>,
+        /// Folder for accuracy.csv and accuracy.md.
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -100,7 +128,10 @@ fn main() -> ExitCode {
         Command::Bake { scene, out, frames } => run_bake(&scene, &out, frames),
         Command::Check { scene } => run_check(&scene),
         Command::CheckBake { dir, scene, json } => run_check_bake(&dir, scene.as_deref(), json.as_deref()),
-        Command::Bench { suite, frames, out } => run_bench(suite, frames, out.as_deref()),
+        Command::Bench { sweep: Some(BenchSweep::Accuracy { scene, steps, tolerances, frames, out }), .. } => {
+            run_accuracy(&scene, &steps, &tolerances, frames, out.as_deref())
+        }
+        Command::Bench { sweep: None, suite, frames, out } => run_bench(suite, frames, out.as_deref()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -248,6 +279,30 @@ fn run_check_bake(dir: &Path, scene: Option<&Path>, json: Option<&Path>) -> Resu
         }
         _ => Err(Failure::Found(verdict)),
     }
+}
+
+fn run_accuracy(
+    scene: &Path,
+    steps: &[u32],
+    tolerances: &[f64],
+    frames: Option<usize>,
+    out: Option<&Path>,
+) -> Result<(), Failure> {
+    if let Some(bad) = steps.iter().find(|&&s| s == 0) {
+        return Err(Failure::Input(format!("--steps: {bad} steps per frame is not a positive count")));
+    }
+    if let Some(bad) = tolerances.iter().find(|t| !(t.is_finite() && **t > 0.0 && **t < 1.0)) {
+        return Err(Failure::Input(format!("--tolerances: {bad} is not between 0 and 1")));
+    }
+    let scene = Scene::load(scene).map_err(input)?;
+    let points = bench::accuracy::sweep(&scene, steps, tolerances, frames, |line| eprintln!("{line}"))
+        .map_err(|e| Failure::Internal(e.to_string()))?;
+    println!("{}", bench::accuracy::markdown_table(&points));
+    if let Some(dir) = out {
+        bench::accuracy::write_results(dir, &points).map_err(input)?;
+        println!("wrote {}", dir.display());
+    }
+    Ok(())
 }
 
 fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {

@@ -4,6 +4,7 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use drape::bake;
+use drape::bench::accuracy;
 use drape::scene::Scene;
 use drape::scene::file::MeshSpec;
 use nalgebra::Vector3;
@@ -184,13 +185,18 @@ fn drape_sphere_never_penetrates_and_ends_draped() {
 }
 
 /// Final positions of `drape_sphere` at grid resolution `n`.
-fn drape_sphere_at(n: usize) -> Vec<Vector3<f64>> {
-    let s = Scene::load_edited(&standard("drape_sphere"), |file| {
+/// `drape_sphere` with an `n` × `n` cloth.
+fn drape_sphere_scene(n: usize) -> Scene {
+    Scene::load_edited(&standard("drape_sphere"), |file| {
         if let MeshSpec::Grid { resolution, .. } = &mut file.garments[0].mesh {
             *resolution = n;
         }
     })
-    .unwrap();
+    .unwrap()
+}
+
+fn drape_sphere_at(n: usize) -> Vec<Vector3<f64>> {
+    let s = drape_sphere_scene(n);
     let mut last = Vec::new();
     bake_frames(&s, |_, x| last = x.to_vec());
     last
@@ -278,5 +284,26 @@ fn preconditioners_change_the_iterations_not_the_answer_on_hanging_cloth() {
     for (name, x) in [("multigrid", &x_multigrid), ("cholesky", &x_cholesky)] {
         let apart = x_jacobi.iter().zip(x).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
         assert!(apart < 1e-3, "{name} solves the same problem: {apart} m apart after 0.5 s");
+    }
+}
+
+/// Backward Euler is first order: on `drape_sphere` before contact, the error
+/// against a reference of 32 steps per frame (SCENES.md's relative RMS)
+/// halves, within 30 %, each time the step halves.
+#[test]
+fn error_against_the_reference_halves_with_the_step_before_contact() {
+    let scene = drape_sphere_scene(16);
+    let frames = 5;
+    let reference = accuracy::trajectory(&scene, 32, 1e-10, frames).unwrap();
+    assert_eq!(reference.first_contact, None, "still falling freely after {frames} frames");
+    let diagonal = accuracy::rest_diagonal(&scene).unwrap();
+    let error = |steps: u32| {
+        let run = accuracy::trajectory(&scene, steps, 1e-10, frames).unwrap();
+        accuracy::relative_rms(&run.frames[frames], &reference.frames[frames], diagonal)
+    };
+    let errors = [error(1), error(2), error(4)];
+    for pair in errors.windows(2) {
+        let ratio = pair[0] / pair[1];
+        assert!((1.4..=2.6).contains(&ratio), "errors {errors:?}: ratio {ratio}");
     }
 }

@@ -1,6 +1,8 @@
 //! Benchmarks: speed of the simulation alone (no I/O) on the standard scenes,
 //! always reported with the strain it reached, as CSV and Markdown.
 
+pub mod accuracy;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
