@@ -189,4 +189,12 @@ fn exit_codes_say_ok_or_bad_input() {
     ]);
     assert_eq!(blocked.status.code(), Some(1), "{}", String::from_utf8_lossy(&blocked.stderr));
     assert!(String::from_utf8_lossy(&blocked.stderr).contains("cannot write"));
+
+    let unreadable = drape(&["bench", "accuracy", "scene.toml", "--tolerances", "abc"]);
+    assert_eq!(unreadable.status.code(), Some(1), "a command line we cannot read is bad input");
+    assert!(String::from_utf8_lossy(&unreadable.stderr).contains("--tolerances"));
+    let zero_steps = drape(&["bench", "accuracy", "scene.toml", "--steps", "0"]);
+    assert_eq!(zero_steps.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&zero_steps.stderr).contains("--steps"));
+    assert_eq!(drape(&["--help"]).status.code(), Some(0));
 }
