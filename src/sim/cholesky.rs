@@ -16,7 +16,7 @@
 //! conjugate gradients pays for one iteration each). So the factor is
 //! *lagged*: a kept factor is tried first on a small iteration budget
 //! ([`STALE_BUDGET`]); when that is not enough the factor is rebuilt for the
-//! system at hand, which then solves in one iteration, and stale factors are
+//! system at hand, which then solves in one or two, and stale factors are
 //! not tried again for [`RETRY_STALE_AFTER`] solves.
 //!
 //! The factor is single precision: a preconditioner need not be exact (the
@@ -35,10 +35,9 @@ use std::sync::Arc;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::traits::{ComplexField, RealField};
 use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{Matrix3, Vector3};
-
-use faer::traits::{ComplexField, RealField};
 
 use super::pcg::Constraint;
 use super::sparse::BlockPattern;
@@ -249,7 +248,6 @@ pub struct LaggedCholesky {
     symbolic: Arc<SymbolicCholesky<u32>>,
     numeric: Factor,
     current: bool,
-    refactors: u64,
     /// Solves started so far, and the solve at which a stale factor last failed.
     solves: u64,
     stale_failed_at: Option<u64>,
@@ -269,7 +267,6 @@ impl LaggedCholesky {
             symbolic: Arc::new(symbolic),
             numeric,
             current: false,
-            refactors: 0,
             solves: 0,
             stale_failed_at: None,
         })
@@ -304,7 +301,6 @@ impl LaggedCholesky {
         if let Factor::Single(single) = &mut self.numeric {
             if single.factor(symbolic, lower, filtered).is_ok() {
                 self.current = true;
-                self.refactors += 1;
                 return Ok(());
             }
             self.use_double_precision();
@@ -313,7 +309,6 @@ impl LaggedCholesky {
             double.factor(&self.symbolic, &self.lower, &self.filtered)?;
         }
         self.current = true;
-        self.refactors += 1;
         Ok(())
     }
 
@@ -334,16 +329,6 @@ impl LaggedCholesky {
 
     fn use_double_precision(&mut self) {
         self.numeric = Factor::Double(Numeric::new(&self.symbolic, &self.lower));
-    }
-
-    /// True when a factor is available to [`apply`](Self::apply).
-    pub fn is_ready(&self) -> bool {
-        self.current
-    }
-
-    /// Number of factors built so far.
-    pub fn refactors(&self) -> u64 {
-        self.refactors
     }
 
     /// `z = M⁻¹ r` with the current factor (unfiltered: the caller filters).
@@ -367,7 +352,6 @@ impl Clone for LaggedCholesky {
                 Factor::Double(double) => Factor::Double(double.duplicate(symbolic, lower)),
             },
             current: self.current,
-            refactors: self.refactors,
             solves: self.solves,
             stale_failed_at: self.stale_failed_at,
         }
@@ -381,7 +365,6 @@ impl std::fmt::Debug for LaggedCholesky {
             .field("factor_values", &self.symbolic.len_val())
             .field("single_precision", &self.is_single_precision())
             .field("current", &self.current)
-            .field("refactors", &self.refactors)
             .finish()
     }
 }
@@ -480,7 +463,8 @@ mod tests {
         assert!(*tries.last().unwrap());
     }
 
-    /// An indefinite matrix is reported, not factored, and leaves no factor.
+    /// An indefinite matrix is reported, not factored, and leaves no factor
+    /// (even after falling back to double precision).
     #[test]
     fn indefinite_matrix_is_rejected() {
         let (pattern, mut a) = ring(6, 3);
@@ -488,6 +472,6 @@ mod tests {
         let mut cholesky = LaggedCholesky::new(&pattern).unwrap();
         let free = vec![Constraint::Free; 6];
         assert_eq!(cholesky.refactor(&pattern, &a, &free), Err(CholeskyError::NotPositiveDefinite));
-        assert!(!cholesky.is_ready());
+        assert!(!cholesky.begin_solve(), "no factor is left to try");
     }
 }
