@@ -340,13 +340,10 @@ mod tests {
         [still([0.0, 0.0, 0.0]), still([1.0, 0.0, 0.0]), still([0.0, 0.0, 1.0])]
     }
 
-    /// Brute force: does the vertex cross the triangle's plane, inside it,
-    /// between two of `samples` times?
-    fn sampled_vt_crossing(p: &Path, a: &Path, b: &Path, c: &Path, samples: usize) -> bool {
-        let f = |t: f64| {
-            let (pt, at, bt, ct) = (p.at(t), a.at(t), b.at(t), c.at(t));
-            ((bt - at).cross(&(ct - at)).dot(&(pt - at)), point_triangle_distance(&pt, &at, &bt, &ct))
-        };
+    /// Brute force: between two of `samples` times, does the signed volume
+    /// `f(t).0` of the four points change sign while their distance `f(t).1`
+    /// is (near) zero?
+    fn sampled_crossing(samples: usize, f: impl Fn(f64) -> (f64, f64)) -> bool {
         let mut previous = f(0.0);
         for k in 1..=samples {
             let now = f(k as f64 / samples as f64);
@@ -358,20 +355,20 @@ mod tests {
         false
     }
 
+    /// Does the vertex cross the triangle, by sampling?
+    fn sampled_vt_crossing(p: &Path, a: &Path, b: &Path, c: &Path, samples: usize) -> bool {
+        sampled_crossing(samples, |t| {
+            let (pt, at, bt, ct) = (p.at(t), a.at(t), b.at(t), c.at(t));
+            ((bt - at).cross(&(ct - at)).dot(&(pt - at)), point_triangle_distance(&pt, &at, &bt, &ct))
+        })
+    }
+
+    /// Do the edges cross, by sampling?
     fn sampled_ee_crossing(a: &Path, b: &Path, c: &Path, d: &Path, samples: usize) -> bool {
-        let f = |t: f64| {
+        sampled_crossing(samples, |t| {
             let (at, bt, ct, dt) = (a.at(t), b.at(t), c.at(t), d.at(t));
             ((bt - at).cross(&(dt - ct)).dot(&(ct - at)), segment_distance(&at, &bt, &ct, &dt))
-        };
-        let mut previous = f(0.0);
-        for k in 1..=samples {
-            let now = f(k as f64 / samples as f64);
-            if previous.0.signum() != now.0.signum() && previous.1.min(now.1) < 1e-3 {
-                return true;
-            }
-            previous = now;
-        }
-        false
+        })
     }
 
     #[test]

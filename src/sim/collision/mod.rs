@@ -36,7 +36,6 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
-use serde::{Deserialize, Serialize};
 
 use self::bvh::{Box3, SweptBvh};
 use self::detect::{Detection, Job, Scope};
@@ -48,61 +47,36 @@ use super::motion::Placement;
 /// Influence below which a contact is forgotten.
 const FORGOTTEN: f64 = 1e-3;
 
-/// The collision constants of a scene (PAPER Fig. 10c).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// The collision constants of a scene (PAPER Fig. 10c), as the scene file's
+/// `[collision]` table ([`crate::scene::file::CollisionSettings`]) sets them.
+#[derive(Clone, Debug, PartialEq)]
 pub struct CollisionSettings {
     /// Detect → respond passes per step before impact zones take over.
-    #[serde(default = "default_passes")]
     pub passes: u32,
     /// Factor `a` by which a contact's influence decays when it is not seen
     /// again (eq. 16), in (0, 1).
-    #[serde(default = "default_decay")]
     pub influence_decay: f64,
     /// Influence at which a contact joins the constraint set solved together.
-    #[serde(default = "default_threshold")]
     pub influence_threshold: f64,
     /// Sweeps over the constraint set per pass.
-    #[serde(default = "default_sweeps")]
     pub constraint_sweeps: u32,
     /// Rounds of impact-zone merging before a step gives up.
-    #[serde(default = "default_zone_rounds")]
     pub zone_rounds: u32,
     /// Test each vertex and edge once, from the one triangle that owns it
     /// (PAPER Algorithm 1); off tests them from every incident triangle, for
     /// comparison only: the contacts found are the same.
-    #[serde(default = "default_representative")]
     pub representative_triangles: bool,
-}
-
-fn default_passes() -> u32 {
-    6
-}
-fn default_decay() -> f64 {
-    0.5
-}
-fn default_threshold() -> f64 {
-    1.5
-}
-fn default_sweeps() -> u32 {
-    8
-}
-fn default_zone_rounds() -> u32 {
-    40
-}
-fn default_representative() -> bool {
-    true
 }
 
 impl Default for CollisionSettings {
     fn default() -> Self {
         CollisionSettings {
-            passes: default_passes(),
-            influence_decay: default_decay(),
-            influence_threshold: default_threshold(),
-            constraint_sweeps: default_sweeps(),
-            zone_rounds: default_zone_rounds(),
-            representative_triangles: default_representative(),
+            passes: 6,
+            influence_decay: 0.5,
+            influence_threshold: 1.5,
+            constraint_sweeps: 8,
+            zone_rounds: 40,
+            representative_triangles: true,
         }
     }
 }
@@ -183,7 +157,13 @@ struct Workspace {
     jobs: Vec<Job>,
     chunks: Vec<(Vec<Contact>, u64, u64)>,
     contacts: Vec<Contact>,
+    /// Indices into `contacts` of the eq. 16 constraint set of this pass.
+    constraint_set: Vec<usize>,
     zones: Zones,
+    /// Which points are the root of a zone being made rigid this round.
+    zone_root: Vec<bool>,
+    /// `(zone root, member)` of every point in such a zone, sorted.
+    zone_members: Vec<(u32, u32)>,
 }
 
 /// What the pipeline reads and changes: the cloth particles' state.
@@ -302,13 +282,14 @@ impl CollisionPipeline {
         for entry in self.influence.values_mut() {
             entry.1 = false;
         }
-        let mut set = Vec::new();
-        for (k, c) in self.ws.contacts.iter().enumerate() {
+        let Workspace { contacts, constraint_set, .. } = &mut self.ws;
+        constraint_set.clear();
+        for (k, c) in contacts.iter().enumerate() {
             let entry = self.influence.entry(c.key()).or_insert((0.0, false));
             entry.0 = a * entry.0 + 1.0;
             entry.1 = true;
             if entry.0 >= threshold {
-                set.push(k);
+                constraint_set.push(k);
             }
         }
         self.influence.retain(|_, (e, seen)| {
@@ -328,12 +309,12 @@ impl CollisionPipeline {
         };
         let acted = ws.contacts.iter().fold(false, |acted, c| points.respond(c) | acted);
         for _ in 0..self.settings.constraint_sweeps {
-            let changed = set.iter().fold(false, |changed, &k| points.respond(&ws.contacts[k]) | changed);
+            let changed = ws.constraint_set.iter().fold(false, |changed, &k| points.respond(&ws.contacts[k]) | changed);
             if !changed {
                 break;
             }
         }
-        (set.len() as u32, acted)
+        (ws.constraint_set.len() as u32, acted)
     }
 }
 

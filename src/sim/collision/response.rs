@@ -172,10 +172,15 @@ impl Zones {
 /// affine map of the start positions (`I + t h Ω` for a free zone, whose
 /// `AᵀA ≥ I` never brings two points closer), so no two features of the zone
 /// can meet during the step if they were apart at its start.
-pub fn rigidify(points: &mut Points, members: &[u32], prescribed: Option<&dyn Fn(&Vector3<f64>) -> Vector3<f64>>) {
-    let free: Vec<usize> = members.iter().map(|&i| i as usize).filter(|&i| points.inverse_mass[i] > 0.0).collect();
+pub fn rigidify(
+    points: &mut Points,
+    members: impl Iterator<Item = u32> + Clone,
+    prescribed: Option<&dyn Fn(&Vector3<f64>) -> Vector3<f64>>,
+) {
+    let inverse_mass = points.inverse_mass;
+    let free = members.map(|i| i as usize).filter(move |&i| inverse_mass[i] > 0.0);
     if let Some(carry) = prescribed {
-        for &i in &free {
+        for i in free {
             points.end[i] = carry(&points.start[i]);
             points.velocity[i] = (points.end[i] - points.start[i]) / points.h;
             points.moved[i] = true;
@@ -183,21 +188,21 @@ pub fn rigidify(points: &mut Points, members: &[u32], prescribed: Option<&dyn Fn
         return;
     }
     let mass = |i: usize| 1.0 / points.inverse_mass[i];
-    let total: f64 = free.iter().map(|&i| mass(i)).sum();
+    let total: f64 = free.clone().map(mass).sum();
     if total == 0.0 {
         return;
     }
-    let centre = free.iter().map(|&i| points.start[i] * mass(i)).sum::<Vector3<f64>>() / total;
-    let linear = free.iter().map(|&i| points.velocity[i] * mass(i)).sum::<Vector3<f64>>() / total;
+    let centre = free.clone().map(|i| points.start[i] * mass(i)).sum::<Vector3<f64>>() / total;
+    let linear = free.clone().map(|i| points.velocity[i] * mass(i)).sum::<Vector3<f64>>() / total;
     let mut angular = Vector3::zeros();
     let mut inertia = Matrix3::zeros();
-    for &i in &free {
+    for i in free.clone() {
         let r = points.start[i] - centre;
         angular += r.cross(&points.velocity[i]) * mass(i);
         inertia += (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * mass(i);
     }
     let spin = inertia.try_inverse().map_or_else(Vector3::zeros, |inv| inv * angular);
-    for &i in &free {
+    for i in free {
         let v = linear + spin.cross(&(points.start[i] - centre));
         points.velocity[i] = v;
         points.end[i] = points.start[i] + v * points.h;
@@ -301,7 +306,7 @@ mod tests {
             moved: &mut [false; 3],
             h: 0.1,
         };
-        rigidify(&mut points, &[0, 1, 2], None);
+        rigidify(&mut points, [0, 1, 2].into_iter(), None);
         let momentum: Vector3<f64> = points.velocity.iter().sum();
         assert!((momentum - Vector3::new(0.3, 0.0, 0.0)).norm() < 1e-12);
         for (i, j) in [(0, 1), (1, 2), (0, 2)] {

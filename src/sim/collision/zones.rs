@@ -3,7 +3,6 @@
 //! zones that move rigidly, or with the kinematic point they hold, until
 //! nothing crosses.
 
-use std::collections::HashMap;
 use std::time::Instant;
 
 use nalgebra::Vector3;
@@ -41,18 +40,16 @@ impl CollisionPipeline {
                     }
                 }
             }
-            let mut members: HashMap<u32, Vec<u32>> = HashMap::new();
-            let roots: std::collections::BTreeSet<u32> =
-                crossings.iter().map(|c| self.ws.zones.find(c.nodes[0])).collect();
-            for i in 0..total as u32 {
-                let root = self.ws.zones.find(i);
-                if roots.contains(&root) {
-                    members.entry(root).or_default().push(i);
-                }
-            }
-            for root in roots {
-                let zone = &members[&root];
-                let kinematic = zone.iter().find_map(|&i| self.kinematic(i));
+            self.group_zones(&crossings);
+            let mut start = 0;
+            while start < self.ws.zone_members.len() {
+                let root = self.ws.zone_members[start].0;
+                let end = start + self.ws.zone_members[start..].partition_point(|&(r, _)| r == root);
+                let kinematic = self.ws.zone_members[start..end].iter().find_map(|&(_, i)| self.kinematic(i));
+                let carry = kinematic.map(|placement| {
+                    let step = placement.world_from_local(window.t1) * placement.world_from_local(window.t0).inverse();
+                    move |p: &Vector3<f64>| (step * nalgebra::Point3::from(*p)).coords
+                });
                 let ws = &mut self.ws;
                 let mut points = Points {
                     start: &ws.start,
@@ -62,15 +59,34 @@ impl CollisionPipeline {
                     moved: &mut ws.moved,
                     h: window.h(),
                 };
-                let carry = kinematic.map(|placement| {
-                    let step = placement.world_from_local(window.t1) * placement.world_from_local(window.t0).inverse();
-                    move |p: &Vector3<f64>| (step * nalgebra::Point3::from(*p)).coords
-                });
+                let zone = ws.zone_members[start..end].iter().map(|&(_, i)| i);
                 rigidify(&mut points, zone, carry.as_ref().map(|f| f as &dyn Fn(&Vector3<f64>) -> Vector3<f64>));
+                start = end;
             }
             report.response += clock.elapsed();
             self.ws.contacts = crossings;
         }
+    }
+
+    /// Lists every point of a zone that holds one of `crossings`, as
+    /// `(zone root, point)` sorted by root, in the workspace.
+    fn group_zones(&mut self, crossings: &[super::response::Contact]) {
+        let ws = &mut self.ws;
+        let total = ws.start.len();
+        ws.zone_root.clear();
+        ws.zone_root.resize(total, false);
+        for c in crossings {
+            let root = ws.zones.find(c.nodes[0]);
+            ws.zone_root[root as usize] = true;
+        }
+        ws.zone_members.clear();
+        for i in 0..total as u32 {
+            let root = ws.zones.find(i);
+            if ws.zone_root[root as usize] {
+                ws.zone_members.push((root, i));
+            }
+        }
+        ws.zone_members.sort_unstable();
     }
 
     /// The prescribed motion of point `i`, if it has one (pinned particle or
