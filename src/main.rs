@@ -240,11 +240,12 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failur
     }
 }
 
-/// The scene a bake folder's summary names, if it still exists.
+/// The scene a bake folder's summary names, if it still exists. Only that
+/// field is read, so a summary from another version of drape still works.
 fn scene_of_bake(dir: &Path) -> Option<PathBuf> {
     let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
-    let summary: BakeSummary = serde_json::from_str(&text).ok()?;
-    summary.scene_file.map(PathBuf::from).filter(|p| p.is_file())
+    let summary: serde_json::Value = serde_json::from_str(&text).ok()?;
+    summary.get("scene_file")?.as_str().map(PathBuf::from).filter(|p| p.is_file())
 }
 
 fn run_check_bake(dir: &Path, scene: Option<&Path>, json: Option<&Path>) -> Result<(), Failure> {

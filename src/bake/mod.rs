@@ -24,6 +24,8 @@ pub struct FrameRecord {
     pub timings: StageTimings,
     /// Conjugate-gradient iterations, summed over the steps.
     pub cg_iterations: u32,
+    /// Cholesky factors built for the solves, summed over the steps.
+    pub factorizations: u32,
     /// Steps whose linear solve stopped at the iteration cap.
     pub unconverged_steps: u32,
     /// Largest stretch strain at the end of the frame.
@@ -101,6 +103,7 @@ impl Baker {
             let step = self.sim.step(self.step_s).map_err(|source| BakeError::Step { frame, source })?;
             record.timings.add(&step.timings);
             record.cg_iterations += step.solver.iterations;
+            record.factorizations += step.factorizations;
             record.unconverged_steps += u32::from(!step.solver.converged);
             record.contacts = record.contacts.max(step.contacts);
             record.max_strain = step.max_strain;

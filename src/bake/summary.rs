@@ -95,6 +95,8 @@ pub struct FrameRow {
     pub ms: f64,
     /// Conjugate-gradient iterations over the frame.
     pub cg_iterations: u32,
+    /// Cholesky factors built over the frame.
+    pub factorizations: u32,
     /// Largest strain at the frame end.
     pub max_strain: f64,
     /// Mean strain at the frame end.
@@ -181,6 +183,7 @@ impl BakeSummary {
                     frame: r.frame,
                     ms: ms(r),
                     cg_iterations: r.cg_iterations,
+                    factorizations: r.factorizations,
                     max_strain: r.max_strain,
                     mean_strain: r.mean_strain,
                     contacts: r.contacts,
