@@ -341,14 +341,24 @@ mod tests {
     }
 
     /// Brute force: between two of `samples` times, does the signed volume
-    /// `f(t).0` of the four points change sign while their distance `f(t).1`
-    /// is (near) zero?
+    /// `f(t).0` of the four points change sign at a root (refined by
+    /// bisection) where their distance `f(t).1` is zero? The lines of two
+    /// edges (or a vertex and a triangle's plane) pass each other often; the
+    /// features cross only when they touch then.
     fn sampled_crossing(samples: usize, f: impl Fn(f64) -> (f64, f64)) -> bool {
         let mut previous = f(0.0);
         for k in 1..=samples {
-            let now = f(k as f64 / samples as f64);
-            if previous.0.signum() != now.0.signum() && previous.1.min(now.1) < 1e-3 {
-                return true;
+            let t = k as f64 / samples as f64;
+            let now = f(t);
+            if previous.0.signum() != now.0.signum() {
+                let (mut lo, mut hi, sign) = ((k - 1) as f64 / samples as f64, t, previous.0.signum());
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if f(mid).0.signum() == sign { lo = mid } else { hi = mid }
+                }
+                if f(0.5 * (lo + hi)).1 < 1e-9 {
+                    return true;
+                }
             }
             previous = now;
         }
