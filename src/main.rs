@@ -67,7 +67,8 @@ enum Command {
         /// `accuracy SCENE`: speed against error instead of the suites.
         #[command(subcommand)]
         sweep: Option<BenchSweep>,
-        /// Which cases: the solver on drape_sphere, the collision scenes, or all.
+        /// Which cases: the solver on drape_sphere, the collision scenes, the
+        /// strain limits (projection, clamping, off), or all.
         #[arg(long, value_enum, default_value = "core")]
         suite: bench::Suite,
         /// Frames per case (default: each scene's full range).
@@ -319,6 +320,7 @@ fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> 
         bench::run(suite, frames, |line| eprintln!("{line}")).map_err(|e| Failure::Internal(e.to_string()))?;
     println!("{}", bench::markdown_table(&results));
     println!("{}", bench::collision_table(&results));
+    println!("{}", bench::constraints_table(&results));
     if let Some(dir) = out {
         bench::write_results(dir, &results).map_err(input)?;
         println!("wrote {}", dir.display());

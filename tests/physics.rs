@@ -7,6 +7,7 @@ use drape::bake;
 use drape::bench::accuracy;
 use drape::scene::Scene;
 use drape::scene::file::MeshSpec;
+use drape::sim::inextensibility::StrainLimiting;
 use nalgebra::Vector3;
 
 fn scene(text: &str) -> Scene {
@@ -122,6 +123,61 @@ fn hanging_cloth_comes_to_rest_and_the_pins_carry_its_weight() {
     assert!(reaction.xz().norm() < 0.01 * weight);
 }
 
+/// A denim curtain (top row pinned, hanging from the start) whose springs
+/// alone would stretch it past its strain limit (stretch stiffness 20 N/m:
+/// over 3 % at the top; 1 % limit) hangs on its inextensibility
+/// constraints: it comes to rest, at the same equilibrium within 1 cm at 1,
+/// 4 and 16 steps per frame, with every stretch edge within the limit.
+/// (Denim, not cotton: a cotton curtain's hem ripples out of plane by a
+/// centimetre to one side or the other, a buckling whose side no step size
+/// decides.)
+#[test]
+fn hanging_cloth_on_its_constraints_has_one_equilibrium_at_any_step() {
+    let text = |steps: u32, limiting: &str| {
+        format!(
+            r#"
+            [time]
+            fps = 30.0
+            duration_s = 8.0
+            [solver]
+            steps_per_frame = {steps}
+            tolerance = 1e-6
+            strain_limiting = "{limiting}"
+            [[garment]]
+            name = "cloth"
+            preset = "denim"
+            fabric = {{ stretch_stiffness_n_per_m = 20.0, air_damping_per_s = 2.0 }}
+            mesh = {{ grid = {{ size_m = 0.5, resolution = 16 }} }}
+            translation_m = [0.0, 1.0, 0.0]
+            rotation_deg = [90.0, 0.0, 0.0]
+            [[garment.pin]]
+            region = {{ min_m = [-1.0, -1.1, -0.26], max_m = [1.0, 1.1, -0.24] }}
+            "#
+        )
+    };
+    let rest = |steps: u32, limiting: &str| {
+        let s = scene(&text(steps, limiting));
+        let mut sim = s.simulator().unwrap();
+        let mut last = None;
+        for _ in 0..s.frame_count * s.steps_per_frame as usize {
+            last = Some(sim.step(s.step_duration()).unwrap());
+        }
+        let report = last.unwrap();
+        assert!(sim.kinetic_energy() < 1e-6, "{steps} steps/frame not at rest: {} J", sim.kinetic_energy());
+        (sim.positions().to_vec(), report.max_strain)
+    };
+    let (reference, strain) = rest(16, "projection");
+    assert!(strain <= 0.01 + 0.001, "strain {strain} at rest");
+    for steps in [1, 4] {
+        let (x, strain) = rest(steps, "projection");
+        assert!(strain <= 0.01 + 0.001, "{steps} steps/frame: strain {strain}");
+        let gap = x.iter().zip(&reference).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        assert!(gap < 0.01, "{steps} steps/frame: {gap} m from the 16-step equilibrium");
+    }
+    let (_, springs_only) = rest(16, "off");
+    assert!(springs_only > 0.03, "the springs alone stretch {springs_only}");
+}
+
 /// A cloth dropped flat onto the ground settles, and the ground then
 /// carries exactly its weight through the contact constraints (eq. 14), so
 /// friction (μ N) acts with the right normal force.
@@ -195,15 +251,20 @@ fn drape_sphere_scene(n: usize) -> Scene {
     .unwrap()
 }
 
-fn drape_sphere_at(n: usize) -> Vec<Vector3<f64>> {
-    let s = drape_sphere_scene(n);
+fn drape_sphere_springs_only_at(n: usize) -> Vec<Vector3<f64>> {
+    let mut s = drape_sphere_scene(n);
+    s.strain_limiting = StrainLimiting::Off;
     let mut last = Vec::new();
     bake_frames(&s, |_, x| last = x.to_vec());
     last
 }
 
 /// Stiffness and mass are per unit area, so halving the edge length leaves the
-/// drape nearly unchanged: lowest point and bounding box within 3 cm.
+/// drape nearly unchanged: lowest point and bounding box within 3 cm. This is
+/// the springs' promise, so the strain limits are off: with cotton's 1 %
+/// limit the 32 × 32 drape stands 3-6 cm wider than the 64 × 64 one (a coarse
+/// grid of nearly inextensible edges cannot fold as finely: membrane
+/// locking, measured and recorded in BENCHMARKS.md).
 #[test]
 fn drape_does_not_depend_on_mesh_resolution() {
     let bounds = |x: &[Vector3<f64>]| {
@@ -211,7 +272,7 @@ fn drape_does_not_depend_on_mesh_resolution() {
             (lo.inf(p), hi.sup(p))
         })
     };
-    let (coarse, fine) = (bounds(&drape_sphere_at(32)), bounds(&drape_sphere_at(64)));
+    let (coarse, fine) = (bounds(&drape_sphere_springs_only_at(32)), bounds(&drape_sphere_springs_only_at(64)));
     assert!((coarse.0 - fine.0).amax() < 0.03, "min corners {} vs {}", coarse.0, fine.0);
     assert!((coarse.1 - fine.1).amax() < 0.03, "max corners {} vs {}", coarse.1, fine.1);
 }
@@ -306,4 +367,57 @@ fn error_against_the_reference_halves_with_the_step_before_contact() {
         let ratio = pair[0] / pair[1];
         assert!((1.4..=2.6).contains(&ratio), "errors {errors:?}: ratio {ratio}");
     }
+}
+
+/// A fabric changed while the cloth swings (chiffon, 3 % strain limit, to
+/// denim: 9 × the mass, 12 × the stretch stiffness, a 1 % limit) blends in
+/// over a few steps: no step's kinetic energy jumps past twice its
+/// neighbours' (at once, the mass alone would multiply it by 9), and
+/// afterwards the cloth runs on denim (its mass and strain).
+#[test]
+fn a_fabric_change_mid_run_blends_in_without_a_jerk() {
+    let text = |preset: &str| {
+        format!(
+            r#"
+            [time]
+            duration_s = 2.0
+            [solver]
+            steps_per_frame = 2
+            [[garment]]
+            name = "cloth"
+            preset = "{preset}"
+            mesh = {{ grid = {{ size_m = 0.5, resolution = 16 }} }}
+            translation_m = [0.0, 1.0, 0.0]
+            [[garment.pin]]
+            vertices = [0, 15]
+            "#
+        )
+    };
+    const CHANGE: usize = 25;
+    let (chiffon, denim) = (scene(&text("chiffon")), scene(&text("denim")));
+    let denim_fabric = denim.garments[0].fabric.clone();
+    let mut sim = chiffon.simulator().unwrap();
+    let h = chiffon.step_duration();
+    let mut energy = Vec::new();
+    for step in 0..120 {
+        if step == CHANGE {
+            sim.set_fabric(0, denim_fabric.clone()).unwrap();
+        }
+        sim.step(h).unwrap();
+        energy.push(sim.kinetic_energy());
+    }
+    // Kinetic energy grows fast from the troughs of a swing, so each step is
+    // compared with the one before it where that one carries at least 1 mJ
+    // (the change comes near the top of the swing, at ~5 mJ).
+    assert!(energy[CHANGE - 1] > 3e-3, "the change should come mid-swing: {} J", energy[CHANGE - 1]);
+    for k in 1..energy.len() {
+        if energy[k - 1] >= 1e-3 {
+            assert!(energy[k] <= 2.0 * energy[k - 1], "step {k}: {} J after {} J", energy[k], energy[k - 1]);
+        }
+    }
+    let mass: f64 = sim.cloth().mass.iter().sum();
+    assert!((mass - denim_fabric.area_density_kg_per_m2 * 0.25).abs() < 1e-12, "denim's mass: {mass} kg");
+    let last = sim.step(h).unwrap();
+    assert!(last.max_strain <= 0.011, "denim's 1 % limit holds: {}", last.max_strain);
+    assert_eq!(sim.set_fabric(3, denim_fabric).unwrap_err().to_string(), "there is no garment 3 (the scene has 1)");
 }

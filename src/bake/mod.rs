@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
+use crate::sim::adaptive::{AdaptiveSettings, Stepper};
 use crate::sim::step::StageTimings;
 use crate::sim::{SimError, Simulator, StepError};
 
@@ -26,9 +27,17 @@ pub struct FrameRecord {
     pub cg_iterations: u32,
     /// Cholesky factors built for the solves, summed over the steps.
     pub factorizations: u32,
-    /// Steps whose linear solve stopped at the iteration cap.
-    pub unconverged_steps: u32,
-    /// Largest stretch strain at the end of the frame.
+    /// Steps rolled back and retried at half the length (the safety net).
+    pub rollbacks: u32,
+    /// Shortest step taken in the frame, s.
+    pub shortest_step_s: f64,
+    /// Newton iterations of the inextensibility projection, summed over the steps.
+    pub projection_iterations: u32,
+    /// Their conjugate-gradient iterations, summed over the steps.
+    pub projection_cg_iterations: u32,
+    /// Steps whose projection missed its tolerance and fell back to clamping.
+    pub projection_fallbacks: u32,
+    /// Largest stretch (l − l₀) / l₀ of a stretch spring at the end of the frame.
     pub max_strain: f64,
     /// Mean stretch strain at the end of the frame.
     pub mean_strain: f64,
@@ -52,9 +61,9 @@ pub struct FrameRecord {
 /// independent intersection checker.
 pub struct Baker {
     sim: Simulator,
+    stepper: Stepper,
     checker: Checker,
     steps_per_frame: u32,
-    step_s: f64,
     frame: usize,
 }
 
@@ -82,7 +91,8 @@ impl Baker {
     pub fn new(scene: &Scene) -> Result<Self, BakeError> {
         let sim = scene.simulator()?;
         let checker = Checker::new(sim.cloth().triangles.clone(), &scene.colliders, &scene.mesh_colliders);
-        Ok(Baker { sim, checker, steps_per_frame: scene.steps_per_frame, step_s: scene.step_duration(), frame: 0 })
+        let stepper = Stepper::new(scene.step_duration(), AdaptiveSettings::default());
+        Ok(Baker { sim, stepper, checker, steps_per_frame: scene.steps_per_frame, frame: 0 })
     }
 
     /// The simulation in its current state.
@@ -98,23 +108,30 @@ impl Baker {
     /// Simulates the next frame.
     pub fn advance(&mut self) -> Result<FrameRecord, BakeError> {
         let frame = self.frame + 1;
-        let mut record = FrameRecord { frame, steps: self.steps_per_frame, ..Default::default() };
-        for _ in 0..self.steps_per_frame {
-            let step = self.sim.step(self.step_s).map_err(|source| BakeError::Step { frame, source })?;
-            record.timings.add(&step.timings);
-            record.cg_iterations += step.solver.iterations;
-            record.factorizations += step.factorizations;
-            record.unconverged_steps += u32::from(!step.solver.converged);
-            record.contacts = record.contacts.max(step.contacts);
-            record.max_strain = step.max_strain;
-            record.mean_strain = step.mean_strain;
-            let c = &step.collision;
-            record.triangle_contacts += c.contacts;
-            record.collision_tests += c.tests;
-            record.collision_tests_without_ownership += c.tests_without_ownership;
-            record.impact_zone_steps += u32::from(c.zone_rounds > 0);
-            record.unresolved_crossings += c.unresolved;
-        }
+        let mut record = FrameRecord { frame, ..Default::default() };
+        let advance = self
+            .stepper
+            .advance(&mut self.sim, self.steps_per_frame, |step| {
+                record.timings.add(&step.timings);
+                record.cg_iterations += step.solver.iterations;
+                record.factorizations += step.factorizations;
+                record.contacts = record.contacts.max(step.contacts);
+                record.projection_iterations += step.projection.newton_iterations;
+                record.projection_cg_iterations += step.projection.cg_iterations;
+                record.projection_fallbacks += u32::from(step.projection.fell_back);
+                record.max_strain = step.max_strain;
+                record.mean_strain = step.mean_strain;
+                let c = &step.collision;
+                record.triangle_contacts += c.contacts;
+                record.collision_tests += c.tests;
+                record.collision_tests_without_ownership += c.tests_without_ownership;
+                record.impact_zone_steps += u32::from(c.zone_rounds > 0);
+                record.unresolved_crossings += c.unresolved;
+            })
+            .map_err(|source| BakeError::Step { frame, source })?;
+        record.steps = advance.steps;
+        record.rollbacks = advance.rollbacks;
+        record.shortest_step_s = advance.shortest_step_s;
         record.time_s = self.sim.time();
         record.intersections = self.checker.check(self.sim.positions(), record.time_s);
         self.frame = frame;

@@ -47,9 +47,13 @@ pub struct BakeSummary {
     pub stage_ms_per_frame_median: BTreeMap<String, f64>,
     /// Mean conjugate-gradient iterations per step.
     pub cg_iterations_per_step_mean: f64,
-    /// Steps whose solve hit the iteration cap.
-    pub unconverged_steps: u32,
-    /// Largest stretch strain at any frame end.
+    /// Steps rolled back and retried at half the length (the safety net).
+    pub rollbacks: u32,
+    /// Mean Newton iterations of the inextensibility projection per step.
+    pub projection_iterations_per_step_mean: f64,
+    /// Steps whose projection fell back to clamping.
+    pub projection_fallbacks: u32,
+    /// Largest stretch (l − l₀) / l₀ at any frame end.
     pub max_strain: f64,
     /// Frame of the largest strain.
     pub max_strain_frame: usize,
@@ -97,7 +101,9 @@ pub struct FrameRow {
     pub cg_iterations: u32,
     /// Cholesky factors built over the frame.
     pub factorizations: u32,
-    /// Largest strain at the frame end.
+    /// Newton iterations of the inextensibility projection over the frame.
+    pub projection_iterations: u32,
+    /// Largest stretch at the frame end.
     pub max_strain: f64,
     /// Mean strain at the frame end.
     pub mean_strain: f64,
@@ -158,7 +164,10 @@ impl BakeSummary {
             stage_ms_per_frame_median: stage_ms,
             cg_iterations_per_step_mean: records.iter().map(|r| r.cg_iterations as f64).sum::<f64>()
                 / steps.max(1) as f64,
-            unconverged_steps: records.iter().map(|r| r.unconverged_steps).sum(),
+            rollbacks: records.iter().map(|r| r.rollbacks).sum(),
+            projection_iterations_per_step_mean: records.iter().map(|r| r.projection_iterations as f64).sum::<f64>()
+                / steps.max(1) as f64,
+            projection_fallbacks: records.iter().map(|r| r.projection_fallbacks).sum(),
             max_strain: worst.map_or(0.0, |r| r.max_strain),
             max_strain_frame: worst.map_or(0, |r| r.frame),
             mean_strain_last: records.last().map_or(0.0, |r| r.mean_strain),
@@ -184,6 +193,7 @@ impl BakeSummary {
                     ms: ms(r),
                     cg_iterations: r.cg_iterations,
                     factorizations: r.factorizations,
+                    projection_iterations: r.projection_iterations,
                     max_strain: r.max_strain,
                     mean_strain: r.mean_strain,
                     contacts: r.contacts,

@@ -12,6 +12,7 @@ use crate::bake::{self, BakeError};
 use crate::io::atomic::{WriteError, write_file};
 use crate::scene::file::MeshSpec;
 use crate::scene::{Scene, SceneError};
+use crate::sim::inextensibility::StrainLimiting;
 
 /// One measured case.
 #[derive(Clone, Debug)]
@@ -48,51 +49,94 @@ pub enum Suite {
     Core,
     /// The collision scenes of SCENES.md at their standard sizes.
     Collisions,
-    /// Both.
+    /// `drape_sphere`, `stiff` and `large_step` with the strain limits
+    /// enforced by fast projection, by per-edge clamping, and not at all.
+    Constraints,
+    /// All of them.
     All,
 }
 
-/// Standard scenes of the collision suite, with the grid resolution to run
-/// them at (`None`: as the scene file has it).
-const COLLISION_CASES: [(&str, Option<usize>); 6] = [
-    ("drape_table", None),
-    ("drape_sphere", Some(64)),
-    ("pillars", None),
-    ("projectile", None),
-    ("needles", None),
-    ("twist", None),
-];
+/// One benchmark case: a standard scene, edited.
+#[derive(Clone, Copy, Debug)]
+struct Case {
+    scene: &'static str,
+    /// Grid resolution (`None`: as the scene file has it).
+    resolution: Option<usize>,
+    self_collision: bool,
+    /// Strain limiting (`None`: as the scene file has it).
+    limiting: Option<StrainLimiting>,
+}
 
-/// Runs `suite`, logging each case as it starts.
-pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Vec<BenchResult>, BenchError> {
-    let core = [("drape_sphere", Some(64), false), ("drape_sphere", Some(128), false)];
-    let collisions = COLLISION_CASES.iter().map(|&(name, resolution)| (name, resolution, true));
-    let cases: Vec<(&str, Option<usize>, bool)> = match suite {
-        Suite::Core => core.to_vec(),
-        Suite::Collisions => collisions.collect(),
-        Suite::All => core.into_iter().chain(collisions).collect(),
-    };
-    let mut results = Vec::new();
-    for (name, resolution, self_collision) in cases {
-        let scene = Scene::load_edited(&standard_scene(name), |file| {
+impl Case {
+    const fn new(scene: &'static str, resolution: Option<usize>, self_collision: bool) -> Self {
+        Case { scene, resolution, self_collision, limiting: None }
+    }
+
+    /// The case's name in tables, e.g. `drape_sphere N=64 (no self-collision)`.
+    fn name(&self, scene: &Scene) -> String {
+        let mut name = scene.name.clone();
+        if let Some(n) = self.resolution {
+            name += &format!(" N={n}");
+        }
+        if !self.self_collision {
+            name += " (no self-collision)";
+        }
+        if let Some(limiting) = self.limiting {
+            name += &format!(" [{}]", limiting.name());
+        }
+        name
+    }
+
+    fn load(&self) -> Result<Scene, SceneError> {
+        Scene::load_edited(&standard_scene(self.scene), |file| {
             for garment in &mut file.garments {
-                garment.self_collision &= self_collision;
+                garment.self_collision &= self.self_collision;
             }
             if let (Some(n), Some(MeshSpec::Grid { resolution, .. })) =
-                (resolution, file.garments.first_mut().map(|g| &mut g.mesh))
+                (self.resolution, file.garments.first_mut().map(|g| &mut g.mesh))
             {
                 *resolution = n;
             }
-        })?;
-        let mut case = scene.name.clone();
-        if let Some(n) = resolution {
-            case += &format!(" N={n}");
-        }
-        if !self_collision {
-            case += " (no self-collision)";
-        }
-        log(&format!("running {case} ..."));
-        results.push(BenchResult { summary: measure(&scene, frames)?, case });
+            if let Some(limiting) = self.limiting {
+                file.solver.strain_limiting = limiting;
+            }
+        })
+    }
+}
+
+/// Standard scenes of the collision suite, at the sizes to run them.
+const COLLISION_CASES: [Case; 6] = [
+    Case::new("drape_table", None, true),
+    Case::new("drape_sphere", Some(64), true),
+    Case::new("pillars", None, true),
+    Case::new("projectile", None, true),
+    Case::new("needles", None, true),
+    Case::new("twist", None, true),
+];
+
+/// The cases of `suite`.
+fn cases(suite: Suite) -> Vec<Case> {
+    let core = [Case::new("drape_sphere", Some(64), false), Case::new("drape_sphere", Some(128), false)];
+    let limitings = [StrainLimiting::Projection, StrainLimiting::Clamp, StrainLimiting::Off];
+    let constraints = ["drape_sphere", "stiff", "large_step"]
+        .into_iter()
+        .flat_map(|scene| limitings.map(|limiting| Case { limiting: Some(limiting), ..Case::new(scene, None, true) }));
+    match suite {
+        Suite::Core => core.to_vec(),
+        Suite::Collisions => COLLISION_CASES.to_vec(),
+        Suite::Constraints => constraints.collect(),
+        Suite::All => core.into_iter().chain(COLLISION_CASES).chain(constraints).collect(),
+    }
+}
+
+/// Runs `suite`, logging each case as it starts.
+pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Vec<BenchResult>, BenchError> {
+    let mut results = Vec::new();
+    for case in cases(suite) {
+        let scene = case.load()?;
+        let name = case.name(&scene);
+        log(&format!("running {name} ..."));
+        results.push(BenchResult { summary: measure(&scene, frames)?, case: name });
     }
     Ok(results)
 }
@@ -173,6 +217,33 @@ pub fn collision_table(results: &[BenchResult]) -> String {
     out
 }
 
+/// The strain-limit figures of the results as a Markdown table: time, the
+/// projection's share and effort, and the strain and intersections reached.
+pub fn constraints_table(results: &[BenchResult]) -> String {
+    let mut out = String::from(
+        "| case | vertices | ms/frame | constraints ms/frame | Newton it/step | clamp fallbacks | rollbacks \
+         | max strain | mean strain (last) | intersections |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in results {
+        let s = &r.summary;
+        let _ = writeln!(
+            out,
+            "| {} | {} | {:.1} | {:.2} | {:.2} | {} | {} | {:.3} % | {:.3} % | {} |",
+            r.case,
+            s.vertices,
+            s.ms_per_frame_median,
+            s.stage_ms_per_frame_median.get("constraints").copied().unwrap_or(0.0),
+            s.projection_iterations_per_step_mean,
+            s.projection_fallbacks,
+            s.rollbacks,
+            s.max_strain * 100.0,
+            s.mean_strain_last * 100.0,
+            s.intersections_total
+        );
+    }
+    out
+}
+
 /// The results as CSV, one row per case.
 pub fn csv(results: &[BenchResult]) -> String {
     let mut out = String::from("case,vertices,threads,frames,steps_per_frame,ms_per_frame_median");
@@ -180,7 +251,8 @@ pub fn csv(results: &[BenchResult]) -> String {
         let _ = write!(out, ",{stage}_ms");
     }
     out += ",cg_iterations_per_step,max_strain,contacts_max,collision_tests,collision_tests_without_ownership,\
-            impact_zone_steps,intersections_total,penetrations_total\n";
+            impact_zone_steps,intersections_total,penetrations_total,projection_iterations_per_step,\
+            projection_fallbacks,rollbacks\n";
     for r in results {
         let s = &r.summary;
         let _ = write!(
@@ -193,7 +265,7 @@ pub fn csv(results: &[BenchResult]) -> String {
         }
         let _ = writeln!(
             out,
-            ",{:.2},{:.6},{},{},{},{},{},{}",
+            ",{:.2},{:.6},{},{},{},{},{},{},{:.2},{},{}",
             s.cg_iterations_per_step_mean,
             s.max_strain,
             s.contacts_max,
@@ -201,7 +273,10 @@ pub fn csv(results: &[BenchResult]) -> String {
             s.collision_tests_without_ownership,
             s.impact_zone_steps,
             s.intersections_total,
-            s.penetrations_total
+            s.penetrations_total,
+            s.projection_iterations_per_step_mean,
+            s.projection_fallbacks,
+            s.rollbacks
         );
     }
     out
@@ -211,6 +286,6 @@ pub fn csv(results: &[BenchResult]) -> String {
 pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), WriteError> {
     std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
     write_file(&dir.join("bench.csv"), |w| std::io::Write::write_all(w, csv(results).as_bytes()))?;
-    let tables = format!("{}\n{}", markdown_table(results), collision_table(results));
+    let tables = format!("{}\n{}\n{}", markdown_table(results), collision_table(results), constraints_table(results));
     write_file(&dir.join("bench.md"), |w| std::io::Write::write_all(w, tables.as_bytes()))
 }

@@ -30,6 +30,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::sim::collision::CollisionSettings as PipelineSettings;
+use crate::sim::inextensibility::StrainLimiting;
 use crate::sim::motion::MotionSpec;
 use crate::sim::pcg::PreconditionerKind;
 
@@ -91,6 +92,11 @@ pub struct SolverSettings {
     /// memory, for very large meshes) or `block_jacobi`.
     #[serde(default)]
     pub preconditioner: PreconditionerKind,
+    /// How fabrics' strain limits are enforced: `projection` (default; fast
+    /// projection, PAPER eq. 6), `clamp` (per-edge clamping, cheap, slow to
+    /// converge on fine meshes) or `off` (the stretch springs alone).
+    #[serde(default)]
+    pub strain_limiting: StrainLimiting,
 }
 
 fn default_tolerance() -> f64 {
@@ -108,6 +114,7 @@ impl Default for SolverSettings {
             tolerance: default_tolerance(),
             max_iterations: default_max_iterations(),
             preconditioner: PreconditionerKind::default(),
+            strain_limiting: StrainLimiting::default(),
         }
     }
 }

@@ -19,6 +19,7 @@ use crate::sim::colliders::{Collider, Shape};
 use crate::sim::collision::CollisionSettings;
 use crate::sim::collision::obstacles::MeshCollider;
 use crate::sim::fabric::Fabric;
+use crate::sim::inextensibility::StrainLimiting;
 use crate::sim::motion::{Placement, RigidMotion};
 use crate::sim::pcg::PcgSettings;
 use crate::sim::step::Settings;
@@ -45,6 +46,8 @@ pub struct Scene {
     pub steps_per_frame: u32,
     /// Linear solver settings.
     pub solver: PcgSettings,
+    /// How strain limits are enforced.
+    pub strain_limiting: StrainLimiting,
     /// The cloths.
     pub garments: Vec<Garment>,
     /// The analytic obstacles.
@@ -190,6 +193,7 @@ impl Scene {
             solver: self.solver,
             collision: self.collision.clone(),
             self_collision: self.garments.iter().map(|g| g.self_collision).collect(),
+            strain_limiting: self.strain_limiting,
         };
         Simulator::new(self.cloth(), pins, self.colliders.clone(), self.mesh_colliders.clone(), settings)
     }
@@ -267,6 +271,7 @@ impl Resolver<'_> {
                 max_iterations: solver.max_iterations,
                 preconditioner: solver.preconditioner,
             },
+            strain_limiting: solver.strain_limiting,
             garments,
             colliders,
             mesh_colliders,

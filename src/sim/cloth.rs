@@ -118,6 +118,29 @@ impl Cloth {
         &self.garments[self.garment_of_vertex[i] as usize].fabric
     }
 
+    /// Gives garment `g` a new fabric; its particles' masses follow (from its
+    /// rest triangles' areas, or the fabric's vertex mass). Topology and
+    /// rest shape are unchanged.
+    pub fn set_fabric(&mut self, g: usize, fabric: Fabric) {
+        let vertices = self.garments[g].vertices.clone();
+        match fabric.vertex_mass_kg {
+            Some(m) => self.mass[vertices].iter_mut().for_each(|mass| *mass = m),
+            None => {
+                self.mass[vertices].iter_mut().for_each(|mass| *mass = 0.0);
+                let triangles = self.triangles.iter().zip(&self.triangle_garment).filter(|(_, tg)| **tg as usize == g);
+                for (tri, _) in triangles {
+                    let [a, b, c] = tri.map(|v| self.rest_positions[v as usize]);
+                    let area = 0.5 * (b - a).cross(&(c - a)).norm();
+                    let third = fabric.area_density_kg_per_m2 * area / 3.0;
+                    for v in tri {
+                        self.mass[*v as usize] += third;
+                    }
+                }
+            }
+        }
+        self.garments[g].fabric = fabric;
+    }
+
     /// Stiffness (N/m) and damping (N·s/m) of spring `s` under its garment's fabric.
     pub fn spring_coefficients(&self, s: usize, fabric: &Fabric) -> (SpringStiffness, f64) {
         let ratio = self.spring_area_ratio[s];
@@ -277,6 +300,18 @@ mod tests {
             let total: f64 = cloth.mass.iter().sum();
             assert!((total - 0.135).abs() < 1e-12, "mass = density × area");
         }
+    }
+
+    #[test]
+    fn a_new_fabric_brings_its_masses_and_nothing_else_changes() {
+        let mut cloth = Cloth::new([(&generate::grid(1.0, 8), cotton())]);
+        let (springs, hinges) = (cloth.spring_ends.clone(), cloth.hinge_vertices.clone());
+        let mut denser = cotton();
+        denser.area_density_kg_per_m2 = 0.4;
+        cloth.set_fabric(0, denser.clone());
+        assert!((cloth.mass.iter().sum::<f64>() - 0.4).abs() < 1e-12, "mass = new density × area");
+        assert_eq!(Cloth::new([(&generate::grid(1.0, 8), denser)]).mass, cloth.mass);
+        assert_eq!((cloth.spring_ends.clone(), cloth.hinge_vertices.clone()), (springs, hinges));
     }
 
     #[test]

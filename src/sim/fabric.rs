@@ -46,6 +46,12 @@ pub struct Fabric {
     pub friction: f64,
     /// Collision thickness: the distance kept from colliders, m.
     pub thickness_m: f64,
+    /// Largest stretch the cloth's structural edges may reach, as a strain
+    /// (unitless: 0.01 = 1 %), enforced as inextensibility constraints
+    /// (PAPER eq. 6). Real wovens stretch ~1-3 % under everyday loads, knits
+    /// ~10 % or more. Absent: no constraint, the stretch springs alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strain_limit: Option<f64>,
 }
 
 /// A parameter outside its physical range.
@@ -93,6 +99,9 @@ impl Fabric {
         check("friction", self.friction, (0.0..=10.0).contains(&self.friction), "0 ≤ value ≤ 10")?;
         let h = self.thickness_m;
         check("thickness_m", h, h > 0.0 && h <= 0.05, "0 < value ≤ 0.05 m")?;
+        if let Some(limit) = self.strain_limit {
+            check("strain_limit", limit, (0.0..=1.0).contains(&limit), "0 ≤ value ≤ 1 (a strain: 0.01 = 1 %)")?;
+        }
         Ok(())
     }
 }
@@ -118,6 +127,7 @@ pub(crate) mod tests {
             time_step_s: 1.0 / 60.0,
             friction: 0.4,
             thickness_m: 0.0025,
+            strain_limit: Some(0.01),
         }
     }
 
@@ -142,5 +152,8 @@ pub(crate) mod tests {
         let mut f = cotton();
         f.thickness_m = -0.001;
         assert_eq!(f.validate().unwrap_err().field, "thickness_m");
+        let mut f = cotton();
+        f.strain_limit = Some(-0.01);
+        assert_eq!(f.validate().unwrap_err().field, "strain_limit");
     }
 }

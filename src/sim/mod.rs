@@ -6,6 +6,7 @@
 //! parallel loop writes disjoint outputs and every reduction sums fixed chunks in
 //! a fixed order.
 
+pub mod adaptive;
 pub mod cholesky;
 pub mod cloth;
 pub mod colliders;
@@ -14,11 +15,13 @@ pub mod contact;
 pub mod fabric;
 pub mod forces;
 pub mod implicit;
+pub mod inextensibility;
 pub mod motion;
 pub mod multigrid;
 pub mod parallel;
 pub mod pcg;
 pub mod sparse;
 pub mod step;
+pub mod tuning;
 
 pub use step::{Pin, SimError, Simulator, StepError, StepReport};

@@ -12,8 +12,11 @@
 //!    constrained to arrive at its surface and the system is solved again, so
 //!    the whole cloth feels each new contact within the step. A contact whose
 //!    impulse pulls instead of pushing is released for the next step;
-//! 4. **collisions**: each particle's path against the analytic colliders;
-//! 5. **finish**: pins placed exactly, finiteness check, commit, strain.
+//! 4. **constraints**: `x̂ = x + h v`, projected onto the inextensibility
+//!    constraints (eq. 6, [`super::inextensibility`]), velocities with it;
+//! 5. **collisions**: each particle's path against the analytic colliders,
+//!    then the triangle-collision pipeline when the scene needs one;
+//! 6. **finish**: pins placed exactly, finiteness check, commit, strain.
 //!
 //! A step that produces a non-finite value is not committed: the state stays
 //! as it was before the step and the error names the time and the particle.
@@ -29,16 +32,24 @@ use super::cholesky::CholeskyError;
 use super::cloth::{Cloth, SpringKind};
 use super::colliders::Collider;
 use super::collision::obstacles::{MeshCollider, Obstacles};
-use super::collision::{ClothState, CollisionPipeline, CollisionReport, CollisionSettings, ParticleCollision};
+use super::collision::{
+    ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, ParticleCollision,
+};
 use super::contact::{ParticleSurface, StepWindow, SurfaceContact, resolve_particle};
+use super::fabric::{Fabric, FabricError};
 use super::implicit::{
     AssemblyInput, ParticleCoefficients, SpringCoefficients, SystemBuffers, SystemLayout, assemble, evaluate_springs,
     net_forces,
 };
+use super::inextensibility::{ProjectedState, ProjectionReport, STRAIN_TOLERANCE, StrainLimiting, StrainLimits};
 use super::motion::Placement;
 use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
 use super::pcg::{Constraint, FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner};
+use super::tuning::Ramp;
+
+/// Rounds of projection → collisions after the first when collision
+/// impulses left edges beyond their strain limit.
 
 /// No collider (in per-particle collider indices).
 const NO_COLLIDER: u32 = u32::MAX;
@@ -79,6 +90,22 @@ pub enum SimError {
     Solver(#[from] CholeskyError),
 }
 
+/// A fabric change that cannot be made.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum TuningError {
+    /// No such garment.
+    #[error("there is no garment {garment} (the scene has {count})")]
+    NoGarment {
+        /// The index asked for.
+        garment: usize,
+        /// Number of garments.
+        count: usize,
+    },
+    /// A parameter out of its range.
+    #[error(transparent)]
+    Fabric(#[from] FabricError),
+}
+
 /// A step that could not be completed.
 #[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum StepError {
@@ -92,6 +119,17 @@ pub enum StepError {
         /// First offending particle.
         particle: usize,
     },
+    /// A step failed even at the shortest step the safety net allows
+    /// ([`super::adaptive`]); the state before it is kept.
+    #[error("the step ending at t = {time:.4} s failed even at the shortest allowed step ({step_s:.2e} s): {cause}")]
+    Unrecoverable {
+        /// End time of the failed step, s.
+        time: f64,
+        /// Its length, s.
+        step_s: f64,
+        /// Why it failed.
+        cause: super::adaptive::StepFailure,
+    },
 }
 
 /// Wall time spent in each stage of a step (or summed over steps).
@@ -103,6 +141,8 @@ pub struct StageTimings {
     pub assembly: Duration,
     /// Linear solves (with contact passes).
     pub solve: Duration,
+    /// Inextensibility projection.
+    pub constraints: Duration,
     /// Particles against analytic colliders.
     pub contacts: Duration,
     /// Collision hierarchy refits.
@@ -119,11 +159,12 @@ pub struct StageTimings {
 
 impl StageTimings {
     /// Stage names and durations, in pipeline order.
-    pub fn stages(&self) -> [(&'static str, Duration); 9] {
+    pub fn stages(&self) -> [(&'static str, Duration); 10] {
         [
             ("springs", self.springs),
             ("assembly", self.assembly),
             ("solve", self.solve),
+            ("constraints", self.constraints),
             ("contacts", self.contacts),
             ("refit", self.refit),
             ("broad", self.broad),
@@ -144,6 +185,7 @@ impl StageTimings {
             (&mut self.springs, other.springs),
             (&mut self.assembly, other.assembly),
             (&mut self.solve, other.solve),
+            (&mut self.constraints, other.constraints),
             (&mut self.contacts, other.contacts),
             (&mut self.refit, other.refit),
             (&mut self.broad, other.broad),
@@ -164,10 +206,13 @@ pub struct StepReport {
     pub timings: StageTimings,
     /// Linear solver outcome.
     pub solver: PcgReport,
-    /// Largest stretch-spring strain |l − l₀| / l₀ after the step.
+    /// Largest stretch of a stretch spring after the step, (l − l₀) / l₀
+    /// (0 when none is longer than at rest): what a strain limit bounds.
     pub max_strain: f64,
-    /// Mean stretch-spring strain after the step.
+    /// Mean stretch-spring strain |l − l₀| / l₀ after the step.
     pub mean_strain: f64,
+    /// The inextensibility projection.
+    pub projection: ProjectionReport,
     /// Particle-collider contacts handled.
     pub contacts: u32,
     /// Particles held to a collider's surface in the solve.
@@ -191,6 +236,8 @@ pub struct Settings {
     pub collision: CollisionSettings,
     /// Per garment, whether it collides with itself.
     pub self_collision: Vec<bool>,
+    /// How strain limits are enforced.
+    pub strain_limiting: StrainLimiting,
 }
 
 /// The triangle-collision pipeline of `cloth`, if the scene needs one.
@@ -221,6 +268,22 @@ fn collision_pipeline(
         Obstacles::new(colliders, meshes),
         settings.collision.clone(),
     )
+}
+
+/// Everything a step changes, kept to roll a failed step back
+/// ([`Simulator::checkpoint`]).
+#[derive(Clone, Debug, Default)]
+pub struct Checkpoint {
+    x: Vec<Vector3<f64>>,
+    v: Vec<Vector3<f64>>,
+    time: f64,
+    resting_on: Vec<u32>,
+    released: Vec<bool>,
+    normal_force: Vec<f64>,
+    collision: Option<CollisionMemory>,
+    /// A fabric change in progress: it recomputes the coefficients of each
+    /// step from its step count, so restoring it is enough.
+    ramp: Option<Ramp>,
 }
 
 /// Reusable buffers of a step.
@@ -261,6 +324,10 @@ pub struct Simulator {
     settings: PcgSettings,
     preconditioner: Preconditioner,
     collision: Option<CollisionPipeline>,
+    strain_limits: Option<StrainLimits>,
+    strain_limiting: StrainLimiting,
+    /// A change of fabric being blended in.
+    ramp: Option<Ramp>,
     x: Vec<Vector3<f64>>,
     v: Vec<Vector3<f64>>,
     time: f64,
@@ -300,8 +367,12 @@ impl Simulator {
         let layout = SystemLayout::new(&cloth);
         let preconditioner = Preconditioner::new(settings.solver.preconditioner, &layout.pattern, &cloth.spring_ends)?;
         let collision = collision_pipeline(&cloth, &pins, &colliders, &meshes, &settings);
+        let strain_limits = StrainLimits::new(&cloth, settings.strain_limiting);
         Ok(Simulator {
             layout,
+            strain_limits,
+            strain_limiting: settings.strain_limiting,
+            ramp: None,
             preconditioner,
             collision,
             particles: ParticleCoefficients::new(&cloth),
@@ -375,6 +446,63 @@ impl Simulator {
         -self.pins.iter().map(|p| forces[p.vertex as usize]).sum::<Vector3<f64>>()
     }
 
+    /// Gives garment `garment` a new fabric between two steps, with no
+    /// rebuild of topology: the mechanical coefficients blend in over the
+    /// next [`super::tuning::RAMP_STEPS`] steps ([`super::tuning`]); thickness and friction
+    /// apply at once. A change during a ramp starts from where it is.
+    pub fn set_fabric(&mut self, garment: usize, fabric: Fabric) -> Result<(), TuningError> {
+        let count = self.cloth.garments.len();
+        if garment >= count {
+            return Err(TuningError::NoGarment { garment, count });
+        }
+        fabric.validate()?;
+        let vertices = self.cloth.garments[garment].vertices.clone();
+        for i in vertices {
+            self.surfaces[i] = ParticleSurface { thickness: fabric.thickness_m, friction: fabric.friction };
+            if let Some(pipeline) = &mut self.collision {
+                pipeline.set_surface(i, fabric.thickness_m, fabric.friction);
+            }
+        }
+        self.cloth.set_fabric(garment, fabric);
+        if self.strain_limits.is_none() {
+            self.strain_limits = StrainLimits::new(&self.cloth, self.strain_limiting);
+            if let Some(limits) = &mut self.strain_limits {
+                limits.set_max_lengths(|_| f64::INFINITY);
+            }
+        }
+        let to_particles = ParticleCoefficients::new(&self.cloth);
+        let to_lengths = self.strain_limits.as_ref().map_or_else(Vec::new, |l| l.max_lengths_for(&self.cloth));
+        let to = (to_particles, SpringCoefficients::new(&self.cloth), to_lengths);
+        self.ramp = Some(Ramp::new(&self.particles, &self.springs, self.strain_limits.as_ref(), &self.x, to));
+        Ok(())
+    }
+
+    /// Stores the state a step changes into `into` (reusing its buffers).
+    pub fn checkpoint(&self, into: &mut Checkpoint) {
+        into.x.clone_from(&self.x);
+        into.v.clone_from(&self.v);
+        into.time = self.time;
+        into.resting_on.clone_from(&self.resting_on);
+        into.released.clone_from(&self.released);
+        into.normal_force.clone_from(&self.normal_force);
+        into.collision = self.collision.as_ref().map(CollisionPipeline::memory);
+        into.ramp.clone_from(&self.ramp);
+    }
+
+    /// Returns to the state of `checkpoint`, taken from this simulator.
+    pub fn restore(&mut self, checkpoint: &Checkpoint) {
+        self.x.clone_from(&checkpoint.x);
+        self.v.clone_from(&checkpoint.v);
+        self.time = checkpoint.time;
+        self.resting_on.clone_from(&checkpoint.resting_on);
+        self.released.clone_from(&checkpoint.released);
+        self.normal_force.clone_from(&checkpoint.normal_force);
+        if let (Some(pipeline), Some(memory)) = (&mut self.collision, &checkpoint.collision) {
+            pipeline.restore(memory.clone());
+        }
+        self.ramp.clone_from(&checkpoint.ramp);
+    }
+
     /// Where pin `k` must be at time `t`, m.
     fn pin_target(&self, k: usize, t: f64) -> Vector3<f64> {
         let rest = self.pin_rest[k];
@@ -387,6 +515,11 @@ impl Simulator {
     /// Advances by one backward-Euler step of `h` seconds.
     pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
         let n = self.x.len();
+        if let Some(ramp) = &mut self.ramp {
+            if !ramp.advance(&mut self.particles, &mut self.springs, self.strain_limits.as_mut()) {
+                self.ramp = None;
+            }
+        }
         let window = StepWindow { t0: self.time, t1: self.time + h };
         let mut clock = Instant::now();
         let mut lap = || {
@@ -434,7 +567,18 @@ impl Simulator {
         self.record_contact_forces(h);
         report.timings.solve = lap();
 
-        report.contacts = self.integrate_and_collide(window);
+        self.integrate(h);
+        if let Some(limits) = &mut self.strain_limits {
+            report.projection = limits.project(ProjectedState {
+                x: &mut self.ws.next_x,
+                v: &mut self.ws.next_v,
+                constraints: &self.ws.constraints,
+                mass: &self.particles.mass,
+                h,
+            });
+        }
+        report.timings.constraints = lap();
+        report.contacts = self.collide_with_colliders(window);
         report.timings.contacts = lap();
         if let Some(pipeline) = &mut self.collision {
             let cloth = ClothState {
@@ -443,7 +587,18 @@ impl Simulator {
                 velocity: &mut self.ws.next_v,
                 mass: &self.particles.mass,
             };
-            report.collision = pipeline.resolve(cloth, window);
+            let (limits, constraints, mass) = (&mut self.strain_limits, &self.ws.constraints, &self.particles.mass);
+            let projection = &mut report.projection;
+            let mut after_pass = |x: &mut [Vector3<f64>], v: &mut [Vector3<f64>]| {
+                let Some(limits) = limits.as_mut() else { return false };
+                if projection.abandoned || projection.stalled || limits.excess_strain(x) <= STRAIN_TOLERANCE {
+                    return false;
+                }
+                let report = limits.project_if_met(ProjectedState { x, v, constraints, mass, h });
+                projection.add(&report);
+                !report.abandoned
+            };
+            report.collision = pipeline.resolve(cloth, window, &mut after_pass);
             let c = &report.collision;
             report.timings.refit = c.refit;
             report.timings.broad = c.broad;
@@ -574,9 +729,8 @@ impl Simulator {
         );
     }
 
-    /// `v ← v + Δv`, `x ← x + h v` into the next-state buffers, then each free
-    /// particle against the analytic colliders. Returns the contact count.
-    fn integrate_and_collide(&mut self, window: StepWindow) -> u32 {
+    /// `v ← v + Δv`, `x ← x + h v` into the next-state buffers.
+    fn integrate(&mut self, h: f64) {
         let n = self.x.len();
         let ws = &mut self.ws;
         ws.next_x.resize(n, Vector3::zeros());
@@ -585,10 +739,9 @@ impl Simulator {
         ws.next_x.par_iter_mut().zip(ws.next_v.par_iter_mut()).enumerate().with_min_len(CHUNK).for_each(
             |(i, (next_x, next_v))| {
                 *next_v = v[i] + dv[i];
-                *next_x = x[i] + *next_v * window.h();
+                *next_x = x[i] + *next_v * h;
             },
         );
-        self.collide_with_colliders(window)
     }
 
     /// Each free particle's path from its position to the next-state buffers
@@ -616,17 +769,17 @@ impl Simulator {
         ws.contacts.par_iter().map(|&c| c as u64).sum::<u64>() as u32
     }
 
-    /// Max and mean strain |l − l₀| / l₀ over the stretch springs.
+    /// Largest stretch (l − l₀) / l₀ and mean |l − l₀| / l₀ over the stretch springs.
     fn strain(&mut self) -> (f64, f64) {
         let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
         let strain_of = |k: usize| {
             let s = stretch[k] as usize;
             let [a, b] = cloth.spring_ends[s];
             let rest = cloth.rest_length[s];
-            ((x[a as usize] - x[b as usize]).norm() - rest).abs() / rest
+            ((x[a as usize] - x[b as usize]).norm() - rest) / rest
         };
-        let max = parallel::max(stretch.len(), strain_of);
-        let total = parallel::sum(stretch.len(), &mut self.ws.partials, strain_of);
+        let max = parallel::max(stretch.len(), |k| strain_of(k).max(0.0));
+        let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| strain_of(k).abs());
         (max, total / stretch.len().max(1) as f64)
     }
 }

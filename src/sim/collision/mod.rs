@@ -81,6 +81,17 @@ impl Default for CollisionSettings {
     }
 }
 
+/// A correction of the cloth's end positions and velocities (m, m/s) run after
+/// every response pass, before the next detection checks its result: the
+/// inextensibility projection, so that impulses and strain limits are met
+/// together. Returns whether it moved anything.
+pub type PassHook<'a> = &'a mut dyn FnMut(&mut [Vector3<f64>], &mut [Vector3<f64>]) -> bool;
+
+/// The contact influences a pipeline keeps between steps (see
+/// [`CollisionPipeline::memory`]).
+#[derive(Clone, Debug, Default)]
+pub struct CollisionMemory(HashMap<[u32; 5], (f64, bool)>);
+
 /// What collision processing did in one step.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CollisionReport {
@@ -111,6 +122,23 @@ pub struct CollisionReport {
     pub zone_rounds: u32,
     /// Crossings left when the step ends (should be 0).
     pub unresolved: u32,
+}
+
+impl CollisionReport {
+    /// Folds in a later resolve of the same step (after the positions were
+    /// corrected again): times, passes and zone rounds add up, the crossings
+    /// left are the later ones; the first detection's counts stay.
+    pub fn add(&mut self, later: &CollisionReport) {
+        self.refit += later.refit;
+        self.broad += later.broad;
+        self.narrow += later.narrow;
+        self.response += later.response;
+        self.passes += later.passes;
+        self.zone_rounds += later.zone_rounds;
+        self.pairs = later.pairs;
+        self.constraint_set = later.constraint_set;
+        self.unresolved = later.unresolved;
+    }
 }
 
 /// One garment-level fact the pipeline needs per cloth particle.
@@ -213,9 +241,32 @@ impl CollisionPipeline {
         })
     }
 
+    /// Sets particle `i`'s thickness (m) and friction coefficient.
+    pub fn set_surface(&mut self, i: usize, thickness: f64, friction: f64) {
+        let particle = &mut self.particles[i];
+        (particle.thickness, particle.friction) = (thickness, friction);
+    }
+
+    /// What the pipeline carries from one step to the next: each recurring
+    /// contact's influence (eq. 16). Restoring it with [`Self::restore`] makes
+    /// a retried step start as the first attempt did.
+    pub fn memory(&self) -> CollisionMemory {
+        CollisionMemory(self.influence.clone())
+    }
+
+    /// Puts back what [`Self::memory`] returned.
+    pub fn restore(&mut self, memory: CollisionMemory) {
+        self.influence = memory.0;
+    }
+
     /// Detects and resolves this step's collisions between `window`'s start
     /// and end, correcting the proposed end positions and velocities.
-    pub fn resolve(&mut self, cloth: ClothState, window: crate::sim::contact::StepWindow) -> CollisionReport {
+    pub fn resolve(
+        &mut self,
+        cloth: ClothState,
+        window: crate::sim::contact::StepWindow,
+        after_pass: PassHook,
+    ) -> CollisionReport {
         let mut report = CollisionReport::default();
         let n = cloth.start.len();
         self.load(&cloth, window);
@@ -234,13 +285,14 @@ impl CollisionPipeline {
             let clock = Instant::now();
             report.passes += 1;
             let (constraint_set, acted) = self.respond_pass(window.h());
+            let corrected = after_pass(&mut self.ws.end[..n], &mut self.ws.velocity[..n]);
             report.constraint_set = constraint_set;
             report.response += clock.elapsed();
             // Every contact within reach was already satisfied, so nothing
             // moved and detecting again would find the same contacts. That
             // does not prove nothing crosses (the deficit is linearised along
             // the hit normal), so the impact zones still look for crossings.
-            if !acted {
+            if !acted && !corrected {
                 break;
             }
         }

@@ -1,0 +1,150 @@
+//! Adaptive stepping and the safety net.
+//!
+//! A step that fails — a non-finite value, a linear solve that did not
+//! converge, a strain past the blow-up bound, or crossings the collision
+//! pipeline could not resolve — is rolled back to the state before it and
+//! retried as two steps of half the length, down to a floor of
+//! `nominal / 2^max_halvings`. After a step succeeds the length doubles again,
+//! back to the nominal step. When even the floor fails, advancing stops with
+//! the time, the step and the cause, and the simulator keeps the last good
+//! state: a user never sees a NaN or an explosion.
+//!
+//! Steps are counted in units of the floor step, so the halved and regrown
+//! steps of a frame add up to the frame exactly; a frame with no failure runs
+//! the nominal steps, bit for bit as without the safety net.
+
+use super::step::{Checkpoint, Simulator, StepError, StepReport};
+
+/// Why a step was not accepted.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StepFailure {
+    /// A position or velocity became NaN or infinite.
+    #[error("particle {particle} became non-finite")]
+    NonFinite {
+        /// First offending particle.
+        particle: usize,
+    },
+    /// The linear solve stopped at its iteration cap.
+    #[error("the linear solve did not converge in {iterations} iterations")]
+    Unconverged {
+        /// Iterations run.
+        iterations: u32,
+    },
+    /// A stretch edge lengthened past the blow-up bound.
+    #[error("a stretch edge reached {:.0} % strain (blow-up bound {:.0} %)", strain * 100.0, bound * 100.0)]
+    BlowUp {
+        /// The largest strain, unitless.
+        strain: f64,
+        /// The bound, unitless.
+        bound: f64,
+    },
+    /// The collision pipeline left crossing triangle pairs.
+    #[error("{count} crossings were left unresolved by the collision pipeline")]
+    Crossings {
+        /// Crossings left.
+        count: u32,
+    },
+}
+
+/// How the safety net retries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveSettings {
+    /// Halvings of the nominal step before giving up (5: down to 1/32).
+    pub max_halvings: u32,
+    /// Strain past which a step counts as a blow-up, unitless (10 = 1000 %).
+    pub blow_up_strain: f64,
+}
+
+impl Default for AdaptiveSettings {
+    fn default() -> Self {
+        AdaptiveSettings { max_halvings: 5, blow_up_strain: 10.0 }
+    }
+}
+
+/// What one [`Stepper::advance`] did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Advance {
+    /// Steps accepted.
+    pub steps: u32,
+    /// Steps rolled back and retried shorter.
+    pub rollbacks: u32,
+    /// Shortest step taken, s.
+    pub shortest_step_s: f64,
+    /// Why the last rolled-back step failed.
+    pub last_failure: Option<StepFailure>,
+}
+
+/// Advances a simulator by whole frames with rollback and retry.
+#[derive(Clone, Debug)]
+pub struct Stepper {
+    nominal_s: f64,
+    settings: AdaptiveSettings,
+    checkpoint: Checkpoint,
+}
+
+impl Stepper {
+    /// A stepper whose normal step is `nominal_s` seconds.
+    pub fn new(nominal_s: f64, settings: AdaptiveSettings) -> Self {
+        Stepper { nominal_s, settings, checkpoint: Checkpoint::default() }
+    }
+
+    /// Advances `sim` by `steps` nominal steps, handing each accepted step's
+    /// report to `on_step`. On failure at the floor step the simulator is
+    /// left at the state before that step.
+    pub fn advance(
+        &mut self,
+        sim: &mut Simulator,
+        steps: u32,
+        mut on_step: impl FnMut(&StepReport),
+    ) -> Result<Advance, StepError> {
+        let finest = 1u64 << self.settings.max_halvings;
+        let mut units_left = u64::from(steps) * finest;
+        let mut halvings = 0;
+        let mut advance = Advance { shortest_step_s: self.nominal_s, ..Advance::default() };
+        while units_left > 0 {
+            let units = finest >> halvings;
+            let h = self.nominal_s / (1u64 << halvings) as f64;
+            sim.checkpoint(&mut self.checkpoint);
+            match self.attempt(sim, h) {
+                Ok(report) => {
+                    on_step(&report);
+                    advance.steps += 1;
+                    advance.shortest_step_s = advance.shortest_step_s.min(h);
+                    units_left -= units;
+                    // Grow back when the remaining time is a whole number of longer steps.
+                    if halvings > 0 && units_left % (units * 2) == 0 {
+                        halvings -= 1;
+                    }
+                }
+                Err(failure) => {
+                    sim.restore(&self.checkpoint);
+                    if halvings == self.settings.max_halvings {
+                        return Err(StepError::Unrecoverable { time: sim.time() + h, step_s: h, cause: failure });
+                    }
+                    advance.rollbacks += 1;
+                    advance.last_failure = Some(failure);
+                    halvings += 1;
+                }
+            }
+        }
+        Ok(advance)
+    }
+
+    /// One step of `h`, judged.
+    fn attempt(&self, sim: &mut Simulator, h: f64) -> Result<StepReport, StepFailure> {
+        let report = sim.step(h).map_err(|e| match e {
+            StepError::NonFinite { particle, .. } => StepFailure::NonFinite { particle },
+            StepError::Unrecoverable { cause, .. } => cause,
+        })?;
+        if !report.solver.converged {
+            return Err(StepFailure::Unconverged { iterations: report.solver.iterations });
+        }
+        if report.max_strain > self.settings.blow_up_strain {
+            return Err(StepFailure::BlowUp { strain: report.max_strain, bound: self.settings.blow_up_strain });
+        }
+        if report.collision.unresolved > 0 {
+            return Err(StepFailure::Crossings { count: report.collision.unresolved });
+        }
+        Ok(report)
+    }
+}

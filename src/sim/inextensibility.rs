@@ -1,0 +1,765 @@
+//! Inextensibility constraints (PAPER eq. 1, 2 and 6): a stretch edge of a
+//! garment whose fabric sets a strain limit `ε` may lengthen to at most
+//! `(1 + ε) L` (its rest length `L`); shortening is left to the springs.
+//!
+//! After the implicit velocity update has produced the unconstrained end
+//! positions `x̂`, they are projected onto the constraints by *fast projection*
+//! (Goldenthal et al. 2007). With `C_e(x) = |x_a − x_b| − (1 + ε) L` on every
+//! active edge, each Newton iteration solves
+//!
+//! ```text
+//! (J W Jᵀ) μ = C(x_j),    x_{j+1} = x_j − W Jᵀ μ
+//! ```
+//!
+//! the smallest mass-weighted correction that zeroes the linearised
+//! constraints: eq. 6 with `Δt² λ = −μ` and `W = M⁻¹`. Pinned particles do not
+//! move (`W = 0`); a particle held on a collider's surface slides along it
+//! (`W = M⁻¹ (I − n nᵀ)`). `J W Jᵀ` couples edges that share a particle; it is
+//! applied matrix-free inside a Jacobi-preconditioned conjugate-gradient solve.
+//! Velocities change with positions (`Δv = Δx / h`), so the step stays
+//! consistent. The inequality is an active set: an edge joins when it exceeds
+//! its limit, and leaves when its multiplier would push its ends apart (a
+//! limit only pulls) — otherwise a slack edge that was momentarily over its
+//! limit would be held at it, and a cloth at rest would never settle.
+//!
+//! [`StrainLimiting::Clamp`] is the cheap per-edge alternative (Provot 1995,
+//! mass-weighted and averaged per particle): every over-long edge is shortened
+//! on its own, over and over. It converges slowly on fine meshes and is kept as
+//! the fallback when the projection does not converge, and for comparison.
+//!
+//! Every loop writes disjoint outputs and every sum goes through
+//! [`parallel::sum`], so the result is bit-identical at any thread count.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use super::cloth::{Cloth, SpringKind};
+use super::parallel::{self, for_each_indexed as par_each};
+use super::pcg::Constraint;
+
+/// Strain at which the constraints count as met: 0.01 % beyond the limit.
+pub const STRAIN_TOLERANCE: f64 = 1e-4;
+
+/// Newton iterations of one projection before it falls back to clamping.
+const NEWTON_ITERATIONS: u32 = 30;
+
+/// Rounds per Newton iteration of releasing edges whose multiplier pushes
+/// and solving again (a primal active-set method on the inequalities).
+const RELEASE_ROUNDS: u32 = 4;
+
+/// Edges within this strain of their limit join the active set before they
+/// exceed it (the multipliers release those that would push): a cloth
+/// hanging on its constraints keeps them from step to step, and the Newton
+/// iterations need not discover them one ring at a time.
+const NEAR_LIMIT: f64 = 1e-3;
+
+/// Halvings of a Newton step that does not reduce the excess.
+const BACKTRACKS: u32 = 6;
+
+/// A Newton iteration that leaves more than this fraction of the squared
+/// excess makes no real progress; after [`STALLED_ITERATIONS`] of them in a
+/// row the limits are taken as unreachable (pins pulling the cloth apart).
+const STALL_RATIO: f64 = 0.9;
+
+/// See [`STALL_RATIO`].
+const STALLED_ITERATIONS: u32 = 3;
+
+/// Conjugate-gradient iterations per Newton iteration.
+const CG_ITERATIONS: u32 = 400;
+
+/// Relative residual at which a Newton iteration's linear solve stops.
+const CG_TOLERANCE: f64 = 1e-4;
+
+/// Per-edge clamping sweeps (the fallback, or the method when chosen).
+const CLAMP_SWEEPS: u32 = 200;
+
+/// How a simulation keeps stretch edges within their fabric's strain limit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StrainLimiting {
+    /// Fast projection (eq. 6): a few Newton iterations, each a sparse solve.
+    #[default]
+    Projection,
+    /// Per-edge clamping sweeps (Provot 1995): cheap, converges badly on fine meshes.
+    Clamp,
+    /// No constraints: the springs alone resist stretch.
+    Off,
+}
+
+impl StrainLimiting {
+    /// The name used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            StrainLimiting::Projection => "projection",
+            StrainLimiting::Clamp => "clamp",
+            StrainLimiting::Off => "off",
+        }
+    }
+}
+
+/// What one projection did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProjectionReport {
+    /// Edges held at their limit.
+    pub active_edges: u32,
+    /// Newton iterations (linear solves).
+    pub newton_iterations: u32,
+    /// Conjugate-gradient iterations over all Newton iterations.
+    pub cg_iterations: u32,
+    /// Clamping sweeps (the fallback, or the chosen method).
+    pub clamp_sweeps: u32,
+    /// Largest strain beyond the limit left afterwards (0 when met), unitless.
+    pub excess_strain: f64,
+    /// Whether the Newton iterations ran out while still progressing and
+    /// clamping took over.
+    pub fell_back: bool,
+    /// Whether the Newton iterations stopped making progress: the limits
+    /// cannot be met (pins pulling the cloth apart).
+    pub stalled: bool,
+    /// Whether the projection was undone: it stalled, or (between collision
+    /// passes, [`StrainLimits::project_if_met`]) missed its tolerance.
+    pub abandoned: bool,
+}
+
+impl ProjectionReport {
+    /// Folds in a later projection of the same step (after collision
+    /// impulses): iterations add up, the excess left is the later one.
+    pub fn add(&mut self, later: &ProjectionReport) {
+        self.active_edges = self.active_edges.max(later.active_edges);
+        self.newton_iterations += later.newton_iterations;
+        self.cg_iterations += later.cg_iterations;
+        self.clamp_sweeps += later.clamp_sweeps;
+        self.excess_strain = later.excess_strain;
+        self.fell_back |= later.fell_back;
+        self.stalled |= later.stalled;
+        self.abandoned |= later.abandoned;
+    }
+}
+
+/// One step's particle state as the projection changes it.
+pub struct ProjectedState<'a> {
+    /// End-of-step positions, m: `x̂` in, projected out.
+    pub x: &'a mut [Vector3<f64>],
+    /// End-of-step velocities, m/s: changed by `Δx / h`.
+    pub v: &'a mut [Vector3<f64>],
+    /// What each particle may do (pinned, on a surface, free).
+    pub constraints: &'a [Constraint],
+    /// Particle masses, kg.
+    pub mass: &'a [f64],
+    /// Step, s.
+    pub h: f64,
+}
+
+/// Edges incident to each particle, with the side the particle is on.
+#[derive(Clone, Debug)]
+struct Incidence {
+    /// `start[v]..start[v + 1]` indexes `edges` for particle `v`.
+    start: Vec<u32>,
+    /// Edge index times two, plus 1 when the particle is the edge's second end.
+    edges: Vec<u32>,
+}
+
+impl Incidence {
+    fn new(vertex_count: usize, ends: &[[u32; 2]]) -> Self {
+        let mut count = vec![0u32; vertex_count + 1];
+        for [a, b] in ends {
+            count[*a as usize + 1] += 1;
+            count[*b as usize + 1] += 1;
+        }
+        for v in 0..vertex_count {
+            count[v + 1] += count[v];
+        }
+        let mut fill = count.clone();
+        let mut edges = vec![0u32; count[vertex_count] as usize];
+        for (e, [a, b]) in ends.iter().enumerate() {
+            for (side, v) in [(0, *a), (1, *b)] {
+                edges[fill[v as usize] as usize] = 2 * e as u32 + side;
+                fill[v as usize] += 1;
+            }
+        }
+        Incidence { start: count, edges }
+    }
+
+    /// `(edge, sign)` of each edge at particle `v`: sign +1 at the first end, −1 at the second.
+    fn of(&self, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let range = self.start[v] as usize..self.start[v + 1] as usize;
+        self.edges[range].iter().map(|&k| ((k / 2) as usize, if k % 2 == 0 { 1.0 } else { -1.0 }))
+    }
+}
+
+/// One constrained edge linearised at the current iterate.
+#[derive(Clone, Copy, Debug, Default)]
+struct EdgeState {
+    /// Unit direction from the second end to the first (∂C/∂x_a).
+    direction: Vector3<f64>,
+    /// Constraint value C = |x_a − x_b| − (1 + ε) L, m.
+    violation: f64,
+    /// Diagonal entry of J W Jᵀ, 1/kg; 0 when neither end can move along the edge.
+    diagonal: f64,
+}
+
+/// Reusable buffers of a projection.
+#[derive(Clone, Debug, Default)]
+struct Workspace {
+    /// Per edge.
+    edges: Vec<EdgeState>,
+    /// Per edge: in the active set.
+    active: Vec<bool>,
+    /// The active edges, ascending.
+    active_list: Vec<u32>,
+    /// Particles at the ends of active edges, each once.
+    touched: Vec<u32>,
+    /// Per particle: listed in `touched`.
+    is_touched: Vec<bool>,
+    /// Per active edge (compact): multipliers μ, m·kg and the CG vectors.
+    multiplier: Vec<f64>,
+    residual: Vec<f64>,
+    preconditioned: Vec<f64>,
+    search: Vec<f64>,
+    product: Vec<f64>,
+    /// Per particle: Σ_e ±u_e y_e of an edge vector y (only touched particles are valid).
+    gathered: Vec<Vector3<f64>>,
+    partials: Vec<f64>,
+    /// Positions and velocities kept by [`StrainLimits::project_if_met`].
+    saved: Vec<(Vector3<f64>, Vector3<f64>)>,
+}
+
+/// The inextensibility constraints of a cloth and the solver that enforces them.
+#[derive(Clone, Debug)]
+pub struct StrainLimits {
+    method: StrainLimiting,
+    ends: Vec<[u32; 2]>,
+    rest_length: Vec<f64>,
+    /// `(1 + ε) L` per edge, m (infinite without a limit).
+    max_length: Vec<f64>,
+    /// Garment of each edge.
+    edge_garment: Vec<u32>,
+    incidence: Incidence,
+    ws: Workspace,
+}
+
+impl StrainLimits {
+    /// The constraints of `cloth`: its stretch springs, limited where their
+    /// garment's fabric sets a strain limit (the others get an infinite
+    /// maximal length, so a limit can be set while the cloth runs). `None`
+    /// when no garment has a limit, or `method` is [`StrainLimiting::Off`]:
+    /// the scene then pays nothing for them.
+    pub fn new(cloth: &Cloth, method: StrainLimiting) -> Option<Self> {
+        let any_limit = cloth.garments.iter().any(|g| g.fabric.strain_limit.is_some());
+        if method == StrainLimiting::Off || !any_limit {
+            return None;
+        }
+        let (mut ends, mut rest_length, mut edge_garment) = (Vec::new(), Vec::new(), Vec::new());
+        for (g, garment) in cloth.garments.iter().enumerate() {
+            for s in garment.springs.clone() {
+                if cloth.spring_kind[s] == SpringKind::Stretch {
+                    ends.push(cloth.spring_ends[s]);
+                    rest_length.push(cloth.rest_length[s]);
+                    edge_garment.push(g as u32);
+                }
+            }
+        }
+        let incidence = Incidence::new(cloth.vertex_count(), &ends);
+        let mut limits = StrainLimits {
+            method,
+            ends,
+            rest_length,
+            max_length: Vec::new(),
+            edge_garment,
+            incidence,
+            ws: Workspace::default(),
+        };
+        limits.max_length = limits.max_lengths_for(cloth);
+        Some(limits)
+    }
+
+    /// Each edge's maximal length under `cloth`'s current fabrics, m
+    /// (infinite where the garment has no limit).
+    pub fn max_lengths_for(&self, cloth: &Cloth) -> Vec<f64> {
+        let limit = |e: usize| cloth.garments[self.edge_garment[e] as usize].fabric.strain_limit;
+        (0..self.ends.len()).map(|e| limit(e).map_or(f64::INFINITY, |l| (1.0 + l) * self.rest_length[e])).collect()
+    }
+
+    /// Each edge's maximal length in use, m.
+    pub fn max_lengths(&self) -> &[f64] {
+        &self.max_length
+    }
+
+    /// Sets each edge's maximal length (m) from its index.
+    pub fn set_max_lengths(&mut self, length: impl Fn(usize) -> f64) {
+        for (e, l) in self.max_length.iter_mut().enumerate() {
+            *l = length(e);
+        }
+    }
+
+    /// Each edge's length at `x`, m.
+    pub fn lengths<'a>(&'a self, x: &'a [Vector3<f64>]) -> impl Iterator<Item = f64> + 'a {
+        self.ends.iter().map(move |[a, b]| (x[*a as usize] - x[*b as usize]).norm())
+    }
+
+    /// Number of constrained edges.
+    pub fn edge_count(&self) -> usize {
+        self.ends.len()
+    }
+
+    /// Largest strain beyond its limit of any constrained edge at `x` (0 when
+    /// all are within), unitless.
+    pub fn excess_strain(&self, x: &[Vector3<f64>]) -> f64 {
+        let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
+        parallel::max(ends.len(), |e| {
+            let [a, b] = ends[e];
+            ((x[a as usize] - x[b as usize]).norm() - max_length[e]).max(0.0) / rest[e]
+        })
+    }
+
+    /// Moves `state` onto the constraints (see the module documentation).
+    /// When the Newton iterations run out while still progressing, clamping
+    /// takes over. When they stall, the limits cannot be met (pins pulling
+    /// the cloth apart) and `state` is left as it was: forcing a partial
+    /// answer would only distort the cloth.
+    pub fn project(&mut self, state: ProjectedState) -> ProjectionReport {
+        self.project_keeping(state, true)
+    }
+
+    /// Like [`Self::project`], but without clamping: the result is kept only
+    /// when it meets the limits, and otherwise `state` is left as it was
+    /// (`abandoned`). Between collision passes a partial answer would fight
+    /// the impulses.
+    pub fn project_if_met(&mut self, state: ProjectedState) -> ProjectionReport {
+        self.project_keeping(state, false)
+    }
+
+    /// Runs the projection on `state`, undoing it when it stalls, or (without
+    /// `fallback`) when it misses its tolerance.
+    fn project_keeping(&mut self, mut state: ProjectedState, fallback: bool) -> ProjectionReport {
+        let mut saved = std::mem::take(&mut self.ws.saved);
+        saved.clear();
+        saved.extend(state.x.iter().zip(state.v.iter()).map(|(x, v)| (*x, *v)));
+        let mut report = self.run(&mut state, fallback);
+        let missed = !fallback && report.excess_strain > STRAIN_TOLERANCE;
+        if report.stalled || missed {
+            for (i, (x, v)) in saved.iter().enumerate() {
+                (state.x[i], state.v[i]) = (*x, *v);
+            }
+            report.abandoned = true;
+            report.excess_strain = self.excess_strain(state.x);
+        }
+        self.ws.saved = saved;
+        report
+    }
+
+    /// The chosen method, and clamping after a failed projection when `fallback`.
+    fn run(&mut self, state: &mut ProjectedState, fallback: bool) -> ProjectionReport {
+        let ws = &mut self.ws;
+        ws.edges.resize(self.ends.len(), EdgeState::default());
+        ws.active.clear();
+        ws.active.resize(self.ends.len(), false);
+        ws.active_list.clear();
+        ws.is_touched.clear();
+        ws.is_touched.resize(state.x.len(), false);
+        ws.touched.clear();
+        ws.gathered.resize(state.x.len(), Vector3::zeros());
+        let mut report = ProjectionReport::default();
+        if self.method == StrainLimiting::Projection {
+            self.fast_projection(state, &mut report);
+        }
+        if self.method == StrainLimiting::Clamp || (report.fell_back && fallback) {
+            self.clamp(state, &mut report);
+        }
+        report.active_edges = self.ws.active_list.len() as u32;
+        report
+    }
+
+    /// Newton iterations of fast projection until the strain is within
+    /// tolerance; sets `fell_back` when they run out. Each Newton step is
+    /// shortened (halved, up to [`BACKTRACKS`] times) until it reduces the
+    /// total squared excess: far from the constraints a full step can
+    /// overshoot where the edges turn.
+    fn fast_projection(&mut self, state: &mut ProjectedState, report: &mut ProjectionReport) {
+        let mut stalled = 0;
+        for _ in 0..=NEWTON_ITERATIONS {
+            report.excess_strain = self.linearise(state);
+            if report.excess_strain <= STRAIN_TOLERANCE {
+                return;
+            }
+            if stalled == STALLED_ITERATIONS {
+                report.stalled = true;
+                return;
+            }
+            if report.newton_iterations == NEWTON_ITERATIONS {
+                break;
+            }
+            let before = self.squared_excess(state.x);
+            report.cg_iterations += self.solve_multipliers(state.constraints, state.mass);
+            for _ in 0..RELEASE_ROUNDS {
+                if !self.release_pushing_edges() {
+                    break;
+                }
+                report.cg_iterations += self.solve_multipliers(state.constraints, state.mass);
+            }
+            report.newton_iterations += 1;
+            self.gather_active(Compact::Multiplier);
+            let mut step = 1.0;
+            let mut after = before;
+            for _ in 0..BACKTRACKS {
+                self.move_touched(-step, state);
+                after = self.squared_excess(state.x);
+                if after < before {
+                    break;
+                }
+                self.move_touched(step, state);
+                step *= 0.5;
+            }
+            stalled = if after > STALL_RATIO * before { stalled + 1 } else { 0 };
+        }
+        report.fell_back = true;
+    }
+
+    /// Takes out of the active set every edge within its limit whose
+    /// multiplier would push its ends apart (μ < 0): a strain limit only ever
+    /// pulls. (An edge over its limit stays: it must shorten whatever the
+    /// linearisation says.) Returns whether any left (the multipliers must
+    /// then be solved again).
+    fn release_pushing_edges(&mut self) -> bool {
+        let ws = &mut self.ws;
+        let before = ws.active_list.len();
+        let mut kept = 0;
+        for i in 0..before {
+            let e = ws.active_list[i];
+            if ws.multiplier[i] < 0.0 && ws.edges[e as usize].violation <= 0.0 {
+                ws.active[e as usize] = false;
+            } else {
+                ws.active_list[kept] = e;
+                kept += 1;
+            }
+        }
+        ws.active_list.truncate(kept);
+        kept < before
+    }
+
+    /// `Σ_e max(0, C_e / L_e)²` over every edge: what a Newton step must reduce.
+    fn squared_excess(&mut self, x: &[Vector3<f64>]) -> f64 {
+        let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
+        parallel::sum(ends.len(), &mut self.ws.partials, |e| {
+            let [a, b] = ends[e];
+            let excess = ((x[a as usize] - x[b as usize]).norm() - max_length[e]).max(0.0) / rest[e];
+            excess * excess
+        })
+    }
+
+    /// Per-edge clamping sweeps until the strain is within tolerance.
+    fn clamp(&mut self, state: &mut ProjectedState, report: &mut ProjectionReport) {
+        for _ in 0..CLAMP_SWEEPS {
+            report.excess_strain = self.linearise(state);
+            if report.excess_strain <= STRAIN_TOLERANCE {
+                return;
+            }
+            report.clamp_sweeps += 1;
+            self.clamp_sweep(state.constraints, state.mass);
+            let (gathered, touched) = (&self.ws.gathered, &self.ws.touched);
+            for &v in touched {
+                let delta = gathered[v as usize];
+                state.x[v as usize] += delta;
+                state.v[v as usize] += delta / state.h;
+            }
+        }
+        report.excess_strain = self.excess_strain(state.x);
+    }
+
+    /// Directions, constraint values and `J W Jᵀ` diagonal of every edge at
+    /// `x` (the gradient at the current iterate, as in fast projection); edges over their limit that a particle can shorten join the active
+    /// set (and stay). Returns the largest strain beyond the limit among
+    /// movable edges.
+    fn linearise(&mut self, state: &ProjectedState) -> f64 {
+        let (x, constraints, mass) = (&*state.x, state.constraints, state.mass);
+        let ws = &mut self.ws;
+        let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
+        let weight = |v: u32, d: &Vector3<f64>| constraints[v as usize].filter(*d).dot(d) / mass[v as usize];
+        par_each(&mut ws.edges, |e, state| {
+            let [a, b] = ends[e];
+            let edge = x[a as usize] - x[b as usize];
+            let length = edge.norm();
+            let direction = if length > 0.0 { edge / length } else { Vector3::zeros() };
+            let diagonal = weight(a, &direction) + weight(b, &direction);
+            *state = EdgeState { direction, violation: length - max_length[e], diagonal };
+        });
+        let movable = |e: usize| {
+            let [a, b] = ends[e];
+            ws.edges[e].diagonal > 1e-12 * (1.0 / mass[a as usize] + 1.0 / mass[b as usize])
+        };
+        for e in 0..ends.len() {
+            if !ws.active[e] && ws.edges[e].violation > -NEAR_LIMIT * rest[e] && movable(e) {
+                ws.active[e] = true;
+                ws.active_list.push(e as u32);
+                for v in ends[e] {
+                    if !ws.is_touched[v as usize] {
+                        ws.is_touched[v as usize] = true;
+                        ws.touched.push(v);
+                    }
+                }
+            }
+        }
+        ws.active_list.sort_unstable();
+        let edges = &ws.edges;
+        parallel::max(ends.len(), |e| if movable(e) { (edges[e].violation / rest[e]).max(0.0) } else { 0.0 })
+    }
+
+    /// Solves `(J W Jᵀ) μ = C` on the active edges by Jacobi-preconditioned
+    /// CG, matrix-free and on the calling thread (the active set is usually
+    /// small, and a sequential loop is the same at any thread count).
+    /// Returns the iteration count.
+    fn solve_multipliers(&mut self, constraints: &[Constraint], mass: &[f64]) -> u32 {
+        let ws = &mut self.ws;
+        let k = ws.active_list.len();
+        let (list, edges) = (&ws.active_list, &ws.edges);
+        for v in [&mut ws.multiplier, &mut ws.residual, &mut ws.preconditioned, &mut ws.search, &mut ws.product] {
+            v.resize(k, 0.0);
+        }
+        for (i, &e) in list.iter().enumerate() {
+            let edge = &edges[e as usize];
+            ws.multiplier[i] = 0.0;
+            ws.residual[i] = edge.violation;
+            ws.preconditioned[i] = edge.violation / edge.diagonal;
+        }
+        ws.search.copy_from_slice(&ws.preconditioned);
+        let norm_b = dot(&ws.residual, &ws.residual).sqrt();
+        let mut rz = dot(&ws.residual, &ws.preconditioned);
+        if norm_b == 0.0 {
+            return 0;
+        }
+        for iteration in 1..=CG_ITERATIONS {
+            self.gather_active(Compact::Search);
+            self.multiply(constraints, mass);
+            let ws = &mut self.ws;
+            let pq = dot(&ws.search, &ws.product);
+            if pq <= 0.0 {
+                return iteration;
+            }
+            let alpha = rz / pq;
+            for i in 0..k {
+                ws.multiplier[i] += alpha * ws.search[i];
+                ws.residual[i] -= alpha * ws.product[i];
+            }
+            if dot(&ws.residual, &ws.residual).sqrt() <= CG_TOLERANCE * norm_b {
+                return iteration;
+            }
+            for (i, &e) in ws.active_list.iter().enumerate() {
+                ws.preconditioned[i] = ws.residual[i] / ws.edges[e as usize].diagonal;
+            }
+            let rz_next = dot(&ws.residual, &ws.preconditioned);
+            let beta = rz_next / rz;
+            rz = rz_next;
+            for i in 0..k {
+                ws.search[i] = ws.preconditioned[i] + beta * ws.search[i];
+            }
+        }
+        CG_ITERATIONS
+    }
+
+    /// `gathered_v ← Σ_e ±u_e y_e` over the active edges at each touched
+    /// particle, for the compact edge vector `y` (`Jᵀ y`).
+    fn gather_active(&mut self, which: Compact) {
+        let ws = &mut self.ws;
+        for &v in &ws.touched {
+            ws.gathered[v as usize] = Vector3::zeros();
+        }
+        let values = match which {
+            Compact::Search => &ws.search,
+            Compact::Multiplier => &ws.multiplier,
+        };
+        for (i, &e) in ws.active_list.iter().enumerate() {
+            let [a, b] = self.ends[e as usize];
+            let force = ws.edges[e as usize].direction * values[i];
+            ws.gathered[a as usize] += force;
+            ws.gathered[b as usize] -= force;
+        }
+    }
+
+    /// `product ← J W gathered`, on the active edges.
+    fn multiply(&mut self, constraints: &[Constraint], mass: &[f64]) {
+        let ws = &mut self.ws;
+        let weighted = |v: u32| constraints[v as usize].filter(ws.gathered[v as usize]) / mass[v as usize];
+        for (i, &e) in ws.active_list.iter().enumerate() {
+            let [a, b] = self.ends[e as usize];
+            let edge = &ws.edges[e as usize];
+            ws.product[i] = edge.direction.dot(&(weighted(a) - weighted(b)));
+        }
+    }
+
+    /// `x += scale · W gathered`, `v += scale · W gathered / h` on the touched particles.
+    fn move_touched(&mut self, scale: f64, state: &mut ProjectedState) {
+        let ws = &self.ws;
+        for &v in &ws.touched {
+            let v = v as usize;
+            let delta = state.constraints[v].filter(ws.gathered[v]) * (scale / state.mass[v]);
+            state.x[v] += delta;
+            state.v[v] += delta / state.h;
+        }
+    }
+
+    /// One Jacobi clamping sweep into `gathered` (the position change of each
+    /// touched particle): each over-long movable edge asks its ends to close
+    /// the gap along it, in proportion to their inverse masses (the smallest
+    /// mass-weighted move); each particle moves by the mean of what its edges ask.
+    fn clamp_sweep(&mut self, constraints: &[Constraint], mass: &[f64]) {
+        let ws = &mut self.ws;
+        let (edges, incidence) = (&ws.edges, &self.incidence);
+        for &v in &ws.touched {
+            let (mut sum, mut count) = (Vector3::zeros(), 0.0);
+            for (e, sign) in incidence.of(v as usize) {
+                let edge = &edges[e];
+                if edge.violation > 0.0 && edge.diagonal > 0.0 {
+                    sum -= edge.direction * (sign * edge.violation / edge.diagonal);
+                    count += 1.0;
+                }
+            }
+            let v = v as usize;
+            ws.gathered[v] =
+                if count > 0.0 { constraints[v].filter(sum) / (mass[v] * count) } else { Vector3::zeros() };
+        }
+    }
+}
+
+/// Which compact edge vector to gather.
+#[derive(Clone, Copy)]
+enum Compact {
+    Search,
+    Multiplier,
+}
+
+/// `p · q`, in order.
+fn dot(p: &[f64], q: &[f64]) -> f64 {
+    p.iter().zip(q).map(|(a, b)| a * b).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate;
+    use crate::sim::fabric::tests::cotton;
+
+    /// A grid cloth of `n` × `n` with a 1 % limit, its rows pulled apart by
+    /// `factor` (and a gentle wave in Y): a hanging cloth after a hard tug.
+    fn stretched_grid(n: usize, factor: f64) -> (Cloth, Vec<Vector3<f64>>) {
+        let cloth = Cloth::new([(&generate::grid(1.0, n), cotton())]);
+        let x = cloth
+            .rest_positions
+            .iter()
+            .map(|p| Vector3::new(p.x, 0.02 * (7.0 * p.x).sin() * (5.0 * p.z).cos(), (p.z + 0.5) * factor - 0.5))
+            .collect();
+        (cloth, x)
+    }
+
+    fn strains(cloth: &Cloth, x: &[Vector3<f64>]) -> Vec<f64> {
+        (0..cloth.spring_count())
+            .filter(|&s| cloth.spring_kind[s] == SpringKind::Stretch)
+            .map(|s| {
+                let [a, b] = cloth.spring_ends[s];
+                (x[a as usize] - x[b as usize]).norm() / cloth.rest_length[s] - 1.0
+            })
+            .collect()
+    }
+
+    fn project(
+        method: StrainLimiting,
+        cloth: &Cloth,
+        x: &mut [Vector3<f64>],
+        v: &mut [Vector3<f64>],
+        constraints: &[Constraint],
+    ) -> ProjectionReport {
+        let mut limits = StrainLimits::new(cloth, method).expect("cotton has a limit");
+        limits.project(ProjectedState { x, v, constraints, mass: &cloth.mass, h: 0.01 })
+    }
+
+    #[test]
+    fn a_stretched_edge_is_pulled_back_to_its_limit_about_its_centre_of_mass() {
+        let mut cloth = Cloth::new([(&generate::grid(1.0, 2), cotton())]);
+        let mut x = cloth.rest_positions.clone();
+        cloth.mass = vec![1.0, 3.0, 1.0, 3.0];
+        x[1] += Vector3::new(0.2, 0.0, 0.0); // edges 0-1 and 2-3 at 120 %
+        x[3] += Vector3::new(0.2, 0.0, 0.0);
+        let start = x.clone();
+        let mut v = vec![Vector3::zeros(); 4];
+        let report = project(StrainLimiting::Projection, &cloth, &mut x, &mut v, &[Constraint::Free; 4]);
+        assert!(!report.fell_back && report.newton_iterations <= 3, "{report:?}");
+        assert!(strains(&cloth, &x).iter().all(|&s| s <= 0.01 + STRAIN_TOLERANCE));
+        let momentum: Vector3<f64> = (0..4).map(|i| (x[i] - start[i]) * cloth.mass[i]).sum();
+        assert!(momentum.norm() < 1e-12, "the projection moves no centre of mass: {momentum}");
+        for i in 0..4 {
+            assert!((v[i] - (x[i] - start[i]) / 0.01).norm() < 1e-9, "velocity follows Δx / h");
+        }
+        // The heavier end moves a third as far as the light one.
+        let (light, heavy) = ((x[0] - start[0]).norm(), (x[1] - start[1]).norm());
+        assert!((light - 3.0 * heavy).abs() < 1e-9 * light, "{light} vs {heavy}");
+    }
+
+    #[test]
+    fn pinned_particles_stay_and_surface_particles_slide_along_their_surface() {
+        let cloth = Cloth::new([(&generate::grid(1.0, 2), cotton())]);
+        let mut x = cloth.rest_positions.clone();
+        let start_x = cloth.rest_positions.clone();
+        x[1] += Vector3::new(0.3, 0.2, 0.0);
+        x[3] += Vector3::new(0.3, 0.2, 0.0);
+        let start = x.clone();
+        let normal = Vector3::new(0.0, 1.0, 0.0);
+        let constraints =
+            [Constraint::Fixed, Constraint::Normal(normal), Constraint::Fixed, Constraint::Normal(normal)];
+        let mut v = vec![Vector3::zeros(); 4];
+        project(StrainLimiting::Projection, &cloth, &mut x, &mut v, &constraints);
+        assert_eq!((x[0], x[2]), (start[0], start[2]));
+        for i in [1, 3] {
+            assert!(((x[i] - start[i]).dot(&normal)).abs() < 1e-12, "particle {i} left its surface");
+        }
+        assert!(strains(&cloth, &x).iter().all(|&s| s <= 0.01 + STRAIN_TOLERANCE), "{:?}", strains(&cloth, &x));
+        assert_ne!(x[1], start_x[1]);
+    }
+
+    #[test]
+    fn fast_projection_meets_the_limit_in_few_newton_iterations_where_clamping_needs_many_sweeps() {
+        let (cloth, start) = stretched_grid(32, 1.1);
+        let mut pinned = vec![Constraint::Free; start.len()];
+        pinned[..32].iter_mut().for_each(|c| *c = Constraint::Fixed);
+        let run = |method| {
+            let (mut x, mut v) = (start.clone(), vec![Vector3::zeros(); start.len()]);
+            let report = project(method, &cloth, &mut x, &mut v, &pinned);
+            (report, strains(&cloth, &x).into_iter().fold(f64::MIN, f64::max))
+        };
+        let (projection, strain) = run(StrainLimiting::Projection);
+        assert!(!projection.fell_back && projection.newton_iterations <= 8, "{projection:?}");
+        assert!(strain <= 0.01 + STRAIN_TOLERANCE, "{strain}");
+        let (clamp, clamp_strain) = run(StrainLimiting::Clamp);
+        assert!(clamp.clamp_sweeps > 10 * projection.newton_iterations, "{clamp:?} vs {projection:?}");
+        assert!(clamp_strain > strain, "clamping on 32² is still over its limit: {clamp_strain}");
+    }
+
+    #[test]
+    fn the_projection_is_bit_identical_on_one_and_two_threads() {
+        let (cloth, start) = stretched_grid(40, 1.05);
+        let run = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| {
+                let (mut x, mut v) = (start.clone(), vec![Vector3::zeros(); start.len()]);
+                project(StrainLimiting::Projection, &cloth, &mut x, &mut v, &vec![Constraint::Free; start.len()]);
+                x.iter().flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>()
+            })
+        };
+        assert_eq!(run(1), run(2));
+    }
+
+    #[test]
+    fn no_limit_or_limiting_off_costs_nothing() {
+        let mut fabric = cotton();
+        fabric.strain_limit = None;
+        let cloth = Cloth::new([(&generate::grid(1.0, 4), fabric)]);
+        assert!(StrainLimits::new(&cloth, StrainLimiting::Projection).is_none());
+        let cloth = Cloth::new([(&generate::grid(1.0, 4), cotton())]);
+        assert!(StrainLimits::new(&cloth, StrainLimiting::Off).is_none());
+        assert_eq!(StrainLimits::new(&cloth, StrainLimiting::Projection).map(|l| l.edge_count()), Some(24));
+        let mut unlimited = cotton();
+        unlimited.strain_limit = None;
+        let two = Cloth::new([(&generate::grid(1.0, 4), cotton()), (&generate::grid(1.0, 4), unlimited)]);
+        let limits = StrainLimits::new(&two, StrainLimiting::Projection).expect("one garment has a limit");
+        assert_eq!(limits.edge_count(), 48, "the other garment's edges wait with no limit");
+        assert_eq!(limits.max_lengths().iter().filter(|l| l.is_infinite()).count(), 24);
+    }
+}
