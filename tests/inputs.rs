@@ -123,6 +123,29 @@ fn bad_inputs_get_clear_errors_naming_the_file_and_the_problem() {
             vec!["collider 'ball'", "radius_m", "positive length"],
         ),
         (vec![("scene.toml", "[time]\nduration_s = 0.0\n".into())], vec!["time.duration_s", "out of range"]),
+        (
+            vec![(
+                "scene.toml",
+                format!("{GOOD_HEAD}preset = \"cotton\"\nfabric = {{ strain_limit = -0.01 }}\n{grid}"),
+            )],
+            vec!["strain_limit = -0.01", "0 ≤ value ≤ 1"],
+        ),
+        (
+            vec![(
+                "scene.toml",
+                format!("{GOOD_HEAD}preset = \"cotton\"\n{grid}[[garment.pin]]\nvertices = [0]\nattach = \"body\"\n"),
+            )],
+            vec!["pin 1", "`attach = \"body\"` names no mesh collider"],
+        ),
+        (
+            vec![(
+                "scene.toml",
+                format!(
+                    "{GOOD_HEAD}preset = \"cotton\"\n{grid}[[garment.pin]]\nvertices = [0]\nattach = \"body\"\nmotion = {{ velocity_m_per_s = [1.0, 0.0, 0.0] }}\n"
+                ),
+            )],
+            vec!["pin 1", "give `attach` or `motion`, not both"],
+        ),
     ];
     for (files, expected) in cases {
         let files: Vec<(&str, &str)> = files.iter().map(|(n, t)| (*n, t.as_str())).collect();

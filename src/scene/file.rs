@@ -279,6 +279,11 @@ pub struct PinSpec {
     /// Motion of the pinned vertices; the pivot defaults to their centroid.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motion: Option<MotionSpec>,
+    /// Name of a mesh collider to glue the vertices to: each is held at the
+    /// point of that mesh closest to it at the start (barycentric on its
+    /// triangle) and follows the mesh as it moves. Excludes `motion`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub attach: Option<String>,
 }
 
 /// An axis-aligned box, m.

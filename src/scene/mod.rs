@@ -17,13 +17,14 @@ use crate::mesh::{TriMesh, generate};
 use crate::sim::cloth::Cloth;
 use crate::sim::colliders::{Collider, Shape};
 use crate::sim::collision::CollisionSettings;
+use crate::sim::collision::geometry::closest_on_triangle;
 use crate::sim::collision::obstacles::MeshCollider;
 use crate::sim::fabric::Fabric;
 use crate::sim::inextensibility::StrainLimiting;
 use crate::sim::motion::{Placement, RigidMotion};
 use crate::sim::pcg::PcgSettings;
 use crate::sim::step::Settings;
-use crate::sim::{Pin, SimError, Simulator};
+use crate::sim::{Pin, PinTarget, SimError, Simulator};
 
 /// Largest grid or tube resolution a scene may ask for (vertices per side).
 const MAX_RESOLUTION: usize = 2048;
@@ -186,7 +187,7 @@ impl Scene {
         let mut pins = Vec::new();
         let mut offset = 0;
         for garment in &self.garments {
-            pins.extend(garment.pins.iter().map(|p| Pin { vertex: p.vertex + offset, motion: p.motion }));
+            pins.extend(garment.pins.iter().map(|p| Pin { vertex: p.vertex + offset, target: p.target.clone() }));
             offset += garment.mesh.vertex_count() as u32;
         }
         let settings = Settings {
@@ -241,17 +242,18 @@ impl Resolver<'_> {
         if file.garments.is_empty() {
             return Err(self.invalid("garment", "the scene has no [[garment]]"));
         }
-        let garments = file.garments.iter().map(|g| self.garment(g, &file)).collect::<Result<Vec<_>, _>>()?;
-        for (i, g) in garments.iter().enumerate() {
-            if garments[..i].iter().any(|other| other.name == g.name) {
-                return Err(self.invalid(format!("garment '{}'", g.name), "two garments have this name"));
-            }
-        }
         let (mut colliders, mut mesh_colliders) = (Vec::new(), Vec::new());
         for spec in &file.colliders {
             match self.collider(spec)? {
                 SceneCollider::Analytic(c) => colliders.push(c),
                 SceneCollider::Mesh(m) => mesh_colliders.push(m),
+            }
+        }
+        let garments =
+            file.garments.iter().map(|g| self.garment(g, &file, &mesh_colliders)).collect::<Result<Vec<_>, _>>()?;
+        for (i, g) in garments.iter().enumerate() {
+            if garments[..i].iter().any(|other| other.name == g.name) {
+                return Err(self.invalid(format!("garment '{}'", g.name), "two garments have this name"));
             }
         }
         let collision = self.collision(&file.collision)?;
@@ -280,7 +282,7 @@ impl Resolver<'_> {
         })
     }
 
-    fn garment(&self, spec: &GarmentSpec, file: &SceneFile) -> Result<Garment, SceneError> {
+    fn garment(&self, spec: &GarmentSpec, file: &SceneFile, meshes: &[MeshCollider]) -> Result<Garment, SceneError> {
         let what = format!("garment '{}'", spec.name);
         let preset_error =
             |source| SceneError::Preset { origin: self.origin.to_owned(), garment: spec.name.clone(), source };
@@ -313,11 +315,24 @@ impl Resolver<'_> {
         mesh.transform(&world_from_model);
 
         let mut pins = Vec::new();
-        for (pin, vertices) in pinned {
+        for (k, (pin, vertices)) in pinned.into_iter().enumerate() {
+            let what = format!("{what}: pin {}", k + 1);
+            if let Some(name) = &pin.attach {
+                if pin.motion.is_some() {
+                    let why = "give `attach` or `motion`, not both: an attached vertex moves with its mesh";
+                    return Err(self.invalid(&what, why));
+                }
+                let glued = self.glue(name, meshes, &mesh, &vertices, preset.fabric.thickness_m, &what)?;
+                pins.extend(glued);
+                continue;
+            }
             let centroid =
                 vertices.iter().map(|&v| mesh.positions[v as usize]).sum::<Vector3<f64>>() / vertices.len() as f64;
-            let motion = pin.motion.as_ref().map(|m| RigidMotion::from_spec(m, centroid));
-            pins.extend(vertices.into_iter().map(|vertex| Pin { vertex, motion }));
+            let target = match &pin.motion {
+                Some(m) => PinTarget::Moving(RigidMotion::from_spec(m, centroid)),
+                None => PinTarget::Still,
+            };
+            pins.extend(vertices.into_iter().map(|vertex| Pin { vertex, target: target.clone() }));
         }
         pins.sort_by_key(|p| p.vertex);
         pins.dedup_by_key(|p| p.vertex);
@@ -388,6 +403,44 @@ impl Resolver<'_> {
     }
 
     /// The vertices a pin group selects, in the mesh's own coordinates.
+    /// Pins gluing `vertices` of the (placed) garment `mesh` to the mesh
+    /// collider `name`, each at the point of it closest at time 0, kept at
+    /// `thickness` (m) from the surface on the side the vertex starts on.
+    fn glue(
+        &self,
+        name: &str,
+        meshes: &[MeshCollider],
+        mesh: &TriMesh,
+        vertices: &[u32],
+        thickness: f64,
+        what: &str,
+    ) -> Result<Vec<Pin>, SceneError> {
+        let Some((index, collider)) = meshes.iter().enumerate().find(|(_, m)| m.name == name) else {
+            return Err(self.invalid(what, format!("`attach = \"{name}\"` names no mesh collider of this scene")));
+        };
+        let world_from_local = collider.placement.world_from_local(0.0);
+        let corners: Vec<[Vector3<f64>; 3]> = collider
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| world_from_local.transform_point(&collider.vertices[v as usize].into()).coords))
+            .collect();
+        let pin = |vertex: u32| {
+            let p = mesh.positions[vertex as usize];
+            let closest = |(t, [a, b, c]): (usize, &[Vector3<f64>; 3])| {
+                let w = closest_on_triangle(&p, a, b, c);
+                ((a * w[0] + b * w[1] + c * w[2] - p).norm_squared(), t, w)
+            };
+            let (_, triangle, weights) = corners.iter().enumerate().map(closest).min_by(|x, y| x.0.total_cmp(&y.0))?;
+            let [a, b, c] = &corners[triangle];
+            let side = (b - a).cross(&(c - a)).dot(&(p - a));
+            let offset_m = if side < 0.0 { -thickness } else { thickness };
+            let target = PinTarget::OnMesh { mesh: index as u32, triangle: triangle as u32, weights, offset_m };
+            Some(Pin { vertex, target })
+        };
+        let pins = vertices.iter().map(|&v| pin(v)).collect::<Option<Vec<Pin>>>();
+        pins.ok_or_else(|| self.invalid(what, format!("mesh collider '{name}' has no triangles to attach to")))
+    }
+
     fn pin_vertices(&self, pin: &PinSpec, mesh: &TriMesh, what: &str) -> Result<Vec<u32>, SceneError> {
         let count = mesh.vertex_count();
         if let Some(&bad) = pin.vertices.iter().find(|&&v| v as usize >= count) {

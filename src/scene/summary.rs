@@ -3,6 +3,7 @@
 use std::fmt::Write;
 
 use super::Scene;
+use crate::sim::PinTarget;
 use crate::sim::cloth::SpringKind;
 use crate::sim::colliders::Shape;
 
@@ -54,7 +55,7 @@ pub fn summary(scene: &Scene) -> String {
             f.friction
         );
         let _ = writeln!(out, "  self-collision: {}", if garment.self_collision { "on" } else { "off" });
-        let moving = garment.pins.iter().filter(|p| p.motion.is_some()).count();
+        let moving = garment.pins.iter().filter(|p| p.target != PinTarget::Still).count();
         let _ = writeln!(out, "  pins: {} vertices ({} moving)", garment.pins.len(), moving);
         let _ = writeln!(out, "  mesh: {}", garment.report);
         for warning in garment.report.warnings().iter().chain(&garment.warnings) {

@@ -24,4 +24,4 @@ pub mod sparse;
 pub mod step;
 pub mod tuning;
 
-pub use step::{Pin, SimError, Simulator, StepError, StepReport};
+pub use step::{Pin, PinTarget, SimError, Simulator, StepError, StepReport};

@@ -62,13 +62,38 @@ const CONTACT_PASSES: u32 = 4;
 /// thickness over the step does not call for another solve.
 const RESOLVE_SHIFT: f64 = 0.5;
 
-/// A particle held by the scene: fixed where it starts, or carried by a motion.
+/// A particle held by the scene (a constraint of PAPER eq. 1: its position is
+/// prescribed, the solve keeps its row fixed).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pin {
     /// Particle index.
     pub vertex: u32,
-    /// Motion applied to its starting position; `None` holds it still.
-    pub motion: Option<RigidMotion>,
+    /// Where it is held.
+    pub target: PinTarget,
+}
+
+/// Where a pinned particle is held.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PinTarget {
+    /// Fixed where it starts.
+    Still,
+    /// Its starting position carried by a rigid motion.
+    Moving(RigidMotion),
+    /// Glued to a point of mesh collider `mesh`: the barycentric `weights` of
+    /// its triangle `triangle`, raised by `offset_m` along the triangle's unit
+    /// normal, following the triangle's vertices wherever the mesh takes them
+    /// (a waistband on a body, kept at the cloth's thickness from the skin).
+    OnMesh {
+        /// Index among the simulator's mesh colliders.
+        mesh: u32,
+        /// Triangle of that mesh.
+        triangle: u32,
+        /// Barycentric weights of its three corners (non-negative, sum 1).
+        weights: [f64; 3],
+        /// Signed distance from the surface along the triangle's normal
+        /// (counter-clockwise winding), m.
+        offset_m: f64,
+    },
 }
 
 /// Problems that prevent building a simulator.
@@ -77,6 +102,16 @@ pub enum SimError {
     /// Nothing to simulate.
     #[error("the scene has no cloth particles")]
     Empty,
+    /// An attachment names a mesh collider or triangle that does not exist.
+    #[error("particle {vertex} is attached to triangle {triangle} of mesh collider {mesh}, which does not exist")]
+    AttachmentOutOfRange {
+        /// The attached particle.
+        vertex: u32,
+        /// The mesh collider index.
+        mesh: u32,
+        /// The triangle index.
+        triangle: u32,
+    },
     /// A pin names a particle that does not exist.
     #[error("a pin refers to particle {vertex}, but the cloth has {count} particles")]
     PinOutOfRange {
@@ -255,7 +290,14 @@ fn collision_pipeline(
         })
         .collect();
     for pin in pins {
-        let placement = Placement { rest_pose: nalgebra::Isometry3::identity(), motion: pin.motion };
+        // A rigid mesh carries a point glued to it as its own motion carries its
+        // vertices: the same rigid motion applied to the point's start.
+        let motion = match &pin.target {
+            PinTarget::Still => None,
+            PinTarget::Moving(motion) => Some(*motion),
+            PinTarget::OnMesh { mesh, .. } => meshes[*mesh as usize].placement.motion,
+        };
+        let placement = Placement { rest_pose: nalgebra::Isometry3::identity(), motion };
         particles[pin.vertex as usize].pinned = Some(placement);
     }
     let self_collision =
@@ -321,6 +363,8 @@ pub struct Simulator {
     /// Normal force of each particle's contact in the last solve, N.
     normal_force: Vec<f64>,
     colliders: Vec<Collider>,
+    /// The mesh colliders particles are glued to (all of them when any is).
+    attachment_meshes: Vec<MeshCollider>,
     settings: PcgSettings,
     preconditioner: Preconditioner,
     collision: Option<CollisionPipeline>,
@@ -351,6 +395,14 @@ impl Simulator {
         if let Some(pin) = pins.iter().find(|p| p.vertex as usize >= n) {
             return Err(SimError::PinOutOfRange { vertex: pin.vertex, count: n });
         }
+        for pin in &pins {
+            if let PinTarget::OnMesh { mesh, triangle, .. } = pin.target {
+                let exists = meshes.get(mesh as usize).is_some_and(|m| (triangle as usize) < m.triangles.len());
+                if !exists {
+                    return Err(SimError::AttachmentOutOfRange { vertex: pin.vertex, mesh, triangle });
+                }
+            }
+        }
         let mut fixed = vec![false; n];
         for pin in &pins {
             fixed[pin.vertex as usize] = true;
@@ -368,6 +420,8 @@ impl Simulator {
         let preconditioner = Preconditioner::new(settings.solver.preconditioner, &layout.pattern, &cloth.spring_ends)?;
         let collision = collision_pipeline(&cloth, &pins, &colliders, &meshes, &settings);
         let strain_limits = StrainLimits::new(&cloth, settings.strain_limiting);
+        let glued = pins.iter().any(|p| matches!(p.target, PinTarget::OnMesh { .. }));
+        let attachment_meshes = if glued { meshes } else { Vec::new() };
         Ok(Simulator {
             layout,
             strain_limits,
@@ -386,6 +440,7 @@ impl Simulator {
             released: vec![false; n],
             normal_force: vec![0.0; n],
             colliders,
+            attachment_meshes,
             settings: settings.solver,
             x: cloth.rest_positions.clone(),
             v: vec![Vector3::zeros(); n],
@@ -506,9 +561,17 @@ impl Simulator {
     /// Where pin `k` must be at time `t`, m.
     fn pin_target(&self, k: usize, t: f64) -> Vector3<f64> {
         let rest = self.pin_rest[k];
-        match &self.pins[k].motion {
-            Some(m) => (m.world_from_rest(t) * Point3::from(rest)).coords,
-            None => rest,
+        match &self.pins[k].target {
+            PinTarget::Still => rest,
+            PinTarget::Moving(m) => (m.world_from_rest(t) * Point3::from(rest)).coords,
+            PinTarget::OnMesh { mesh, triangle, weights, offset_m } => {
+                let mesh = &self.attachment_meshes[*mesh as usize];
+                let world_from_local = mesh.placement.world_from_local(t);
+                let [a, b, c] = mesh.triangles[*triangle as usize]
+                    .map(|v| (world_from_local * Point3::from(mesh.vertices[v as usize])).coords);
+                let normal = (b - a).cross(&(c - a)).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
+                a * weights[0] + b * weights[1] + c * weights[2] + normal * *offset_m
+            }
         }
     }
 
