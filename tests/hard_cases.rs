@@ -8,7 +8,7 @@ use std::sync::atomic::AtomicBool;
 
 use drape::bake;
 use drape::scene::Scene;
-use drape::scene::file::{MeshSpec, SceneFile};
+use drape::scene::file::SceneFile;
 use drape::sim::Simulator;
 
 fn standard(name: &str) -> PathBuf {
@@ -61,15 +61,12 @@ fn assert_finite_separate_bounded_and_limited(scene: &Scene) {
 }
 
 /// `large_step`: `drape_sphere` with one solver step per frame, at 30 and at
-/// 24 frames per second; 32 × 32 instead of 64 × 64.
+/// 24 frames per second; full size.
 #[test]
 fn large_steps_stay_finite_separate_bounded_and_within_the_strain_limit() {
     for fps in [30.0, 24.0] {
         let scene = Scene::load_edited(&standard("large_step"), |file: &mut SceneFile| {
             file.time.fps = fps;
-            if let MeshSpec::Grid { resolution, .. } = &mut file.garments[0].mesh {
-                *resolution = 32;
-            }
         })
         .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(scene.steps_per_frame, 1);

@@ -303,7 +303,9 @@ fn bakes_are_bit_identical_across_runs_and_thread_counts() {
 /// of its iterations, and the lagged Cholesky factor in one to three per step,
 /// and all three reach the same shape. (Residual tolerances bound the solution
 /// only up to the condition number, so the runs agree to a millimetre, not to
-/// the tolerance.)
+/// the tolerance.) The strain limits are off: this compares linear solvers,
+/// and the projection's discrete choices (active set, step halving, giving
+/// up) can turn their 1e-8 differences into millimetres on the swing.
 #[test]
 fn preconditioners_change_the_iterations_not_the_answer_on_hanging_cloth() {
     let text = |preconditioner: &str| {
@@ -316,6 +318,7 @@ fn preconditioners_change_the_iterations_not_the_answer_on_hanging_cloth() {
             tolerance = 1e-8
             max_iterations = 5000
             preconditioner = "{preconditioner}"
+            strain_limiting = "off"
             [[garment]]
             name = "cloth"
             preset = "cotton"

@@ -27,8 +27,10 @@
 //! on its own, over and over. It converges slowly on fine meshes and is kept as
 //! the fallback when the projection does not converge, and for comparison.
 //!
-//! Every loop writes disjoint outputs and every sum goes through
-//! [`parallel::sum`], so the result is bit-identical at any thread count.
+//! The loops over all edges run in parallel and write disjoint outputs, their
+//! sums go through [`parallel::sum`], and the conjugate-gradient solve runs on
+//! the calling thread in a fixed order, so the result is bit-identical at any
+//! thread count.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -58,11 +60,17 @@ const BACKTRACKS: u32 = 6;
 
 /// A Newton iteration that leaves more than this fraction of the squared
 /// excess makes no real progress; after [`STALLED_ITERATIONS`] of them in a
-/// row the limits are taken as unreachable (pins pulling the cloth apart).
+/// row the limits are taken as unreachable (pins pulling the cloth apart),
+/// unless [`UNREACHABLE_SHARE`] says the projection is merely slow.
 const STALL_RATIO: f64 = 0.9;
 
 /// See [`STALL_RATIO`].
 const STALLED_ITERATIONS: u32 = 3;
+
+/// A stalled projection counts as unreachable only if it has not removed at
+/// least half of the squared excess it started with; one that has (a hard
+/// impact, far from the limits) is slow, not stuck, and goes on.
+const UNREACHABLE_SHARE: f64 = 0.5;
 
 /// Conjugate-gradient iterations per Newton iteration.
 const CG_ITERATIONS: u32 = 400;
@@ -377,12 +385,14 @@ impl StrainLimits {
     /// overshoot where the edges turn.
     fn fast_projection(&mut self, state: &mut ProjectedState, report: &mut ProjectionReport) {
         let mut stalled = 0;
+        let initial = self.squared_excess(state.x);
+        let mut latest = initial;
         for _ in 0..=NEWTON_ITERATIONS {
             report.excess_strain = self.linearise(state);
             if report.excess_strain <= STRAIN_TOLERANCE {
                 return;
             }
-            if stalled == STALLED_ITERATIONS {
+            if stalled == STALLED_ITERATIONS && latest > UNREACHABLE_SHARE * initial {
                 report.stalled = true;
                 return;
             }
@@ -411,6 +421,7 @@ impl StrainLimits {
                 step *= 0.5;
             }
             stalled = if after > STALL_RATIO * before { stalled + 1 } else { 0 };
+            latest = after;
         }
         report.fell_back = true;
     }

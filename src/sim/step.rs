@@ -654,7 +654,8 @@ impl Simulator {
             let projection = &mut report.projection;
             let mut after_pass = |x: &mut [Vector3<f64>], v: &mut [Vector3<f64>]| {
                 let Some(limits) = limits.as_mut() else { return false };
-                if projection.abandoned || projection.stalled || limits.excess_strain(x) <= STRAIN_TOLERANCE {
+                let gave_up = projection.abandoned || projection.stalled || projection.fell_back;
+                if gave_up || limits.excess_strain(x) <= STRAIN_TOLERANCE {
                     return false;
                 }
                 let report = limits.project_if_met(ProjectedState { x, v, constraints, mass, h });
