@@ -8,9 +8,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
-use crate::sim::adaptive::{AdaptiveSettings, Stepper};
+use crate::sim::adaptive::{AdaptiveSettings, Stepper, Unrecoverable};
 use crate::sim::step::StageTimings;
-use crate::sim::{SimError, Simulator, StepError};
+use crate::sim::{SimError, Simulator};
 
 /// What happened during one frame.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -79,7 +79,7 @@ pub enum BakeError {
         /// The frame that could not be completed.
         frame: usize,
         /// Why.
-        source: StepError,
+        source: Unrecoverable,
     },
     /// Output could not be written.
     #[error(transparent)]

@@ -15,6 +15,19 @@
 
 use super::step::{Checkpoint, Simulator, StepError, StepReport};
 
+/// A step that failed even at the shortest step the safety net allows; the
+/// simulator keeps the state before it.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("the step ending at t = {time:.4} s failed even at the shortest allowed step ({step_s:.2e} s): {cause}")]
+pub struct Unrecoverable {
+    /// End time of the failed step, s.
+    pub time: f64,
+    /// Its length, s.
+    pub step_s: f64,
+    /// Why it failed.
+    pub cause: StepFailure,
+}
+
 /// Why a step was not accepted.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum StepFailure {
@@ -96,7 +109,7 @@ impl Stepper {
         sim: &mut Simulator,
         steps: u32,
         mut on_step: impl FnMut(&StepReport),
-    ) -> Result<Advance, StepError> {
+    ) -> Result<Advance, Unrecoverable> {
         let finest = 1u64 << self.settings.max_halvings;
         let mut units_left = u64::from(steps) * finest;
         let mut halvings = 0;
@@ -112,14 +125,14 @@ impl Stepper {
                     advance.shortest_step_s = advance.shortest_step_s.min(h);
                     units_left -= units;
                     // Grow back when the remaining time is a whole number of longer steps.
-                    if halvings > 0 && units_left % (units * 2) == 0 {
+                    if halvings > 0 && units_left.is_multiple_of(units * 2) {
                         halvings -= 1;
                     }
                 }
                 Err(failure) => {
                     sim.restore(&self.checkpoint);
                     if halvings == self.settings.max_halvings {
-                        return Err(StepError::Unrecoverable { time: sim.time() + h, step_s: h, cause: failure });
+                        return Err(Unrecoverable { time: sim.time() + h, step_s: h, cause: failure });
                     }
                     advance.rollbacks += 1;
                     advance.last_failure = Some(failure);
@@ -132,10 +145,8 @@ impl Stepper {
 
     /// One step of `h`, judged.
     fn attempt(&self, sim: &mut Simulator, h: f64) -> Result<StepReport, StepFailure> {
-        let report = sim.step(h).map_err(|e| match e {
-            StepError::NonFinite { particle, .. } => StepFailure::NonFinite { particle },
-            StepError::Unrecoverable { cause, .. } => cause,
-        })?;
+        let report =
+            sim.step(h).map_err(|StepError::NonFinite { particle, .. }| StepFailure::NonFinite { particle })?;
         if !report.solver.converged {
             return Err(StepFailure::Unconverged { iterations: report.solver.iterations });
         }

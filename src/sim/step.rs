@@ -48,9 +48,6 @@ use super::parallel::{self, CHUNK};
 use super::pcg::{Constraint, FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner};
 use super::tuning::Ramp;
 
-/// Rounds of projection → collisions after the first when collision
-/// impulses left edges beyond their strain limit.
-
 /// No collider (in per-particle collider indices).
 const NO_COLLIDER: u32 = u32::MAX;
 
@@ -153,17 +150,6 @@ pub enum StepError {
         time: f64,
         /// First offending particle.
         particle: usize,
-    },
-    /// A step failed even at the shortest step the safety net allows
-    /// ([`super::adaptive`]); the state before it is kept.
-    #[error("the step ending at t = {time:.4} s failed even at the shortest allowed step ({step_s:.2e} s): {cause}")]
-    Unrecoverable {
-        /// End time of the failed step, s.
-        time: f64,
-        /// Its length, s.
-        step_s: f64,
-        /// Why it failed.
-        cause: super::adaptive::StepFailure,
     },
 }
 
@@ -520,6 +506,8 @@ impl Simulator {
         }
         self.cloth.set_fabric(garment, fabric);
         if self.strain_limits.is_none() {
+            // The first limit of the scene: the constraints start unlimited,
+            // so the ramp draws every edge in from its current length.
             self.strain_limits = StrainLimits::new(&self.cloth, self.strain_limiting);
             if let Some(limits) = &mut self.strain_limits {
                 limits.set_max_lengths(|_| f64::INFINITY);
@@ -540,7 +528,9 @@ impl Simulator {
         into.resting_on.clone_from(&self.resting_on);
         into.released.clone_from(&self.released);
         into.normal_force.clone_from(&self.normal_force);
-        into.collision = self.collision.as_ref().map(CollisionPipeline::memory);
+        if let Some(pipeline) = &self.collision {
+            pipeline.save_memory(into.collision.get_or_insert_with(CollisionMemory::default));
+        }
         into.ramp.clone_from(&self.ramp);
     }
 
@@ -553,7 +543,7 @@ impl Simulator {
         self.released.clone_from(&checkpoint.released);
         self.normal_force.clone_from(&checkpoint.normal_force);
         if let (Some(pipeline), Some(memory)) = (&mut self.collision, &checkpoint.collision) {
-            pipeline.restore(memory.clone());
+            pipeline.restore_memory(memory);
         }
         self.ramp.clone_from(&checkpoint.ramp);
     }
@@ -578,10 +568,10 @@ impl Simulator {
     /// Advances by one backward-Euler step of `h` seconds.
     pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
         let n = self.x.len();
-        if let Some(ramp) = &mut self.ramp {
-            if !ramp.advance(&mut self.particles, &mut self.springs, self.strain_limits.as_mut()) {
-                self.ramp = None;
-            }
+        if let Some(ramp) = &mut self.ramp
+            && !ramp.advance(&mut self.particles, &mut self.springs, self.strain_limits.as_mut())
+        {
+            self.ramp = None;
         }
         let window = StepWindow { t0: self.time, t1: self.time + h };
         let mut clock = Instant::now();

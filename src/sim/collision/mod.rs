@@ -88,7 +88,7 @@ impl Default for CollisionSettings {
 pub type PassHook<'a> = &'a mut dyn FnMut(&mut [Vector3<f64>], &mut [Vector3<f64>]) -> bool;
 
 /// The contact influences a pipeline keeps between steps (see
-/// [`CollisionPipeline::memory`]).
+/// [`CollisionPipeline::save_memory`]).
 #[derive(Clone, Debug, Default)]
 pub struct CollisionMemory(HashMap<[u32; 5], (f64, bool)>);
 
@@ -247,16 +247,17 @@ impl CollisionPipeline {
         (particle.thickness, particle.friction) = (thickness, friction);
     }
 
-    /// What the pipeline carries from one step to the next: each recurring
-    /// contact's influence (eq. 16). Restoring it with [`Self::restore`] makes
-    /// a retried step start as the first attempt did.
-    pub fn memory(&self) -> CollisionMemory {
-        CollisionMemory(self.influence.clone())
+    /// Copies what the pipeline carries from one step to the next (each
+    /// recurring contact's influence, eq. 16) into `into`, reusing its
+    /// storage. Restoring it with [`Self::restore_memory`] makes a retried
+    /// step start as the first attempt did.
+    pub fn save_memory(&self, into: &mut CollisionMemory) {
+        into.0.clone_from(&self.influence);
     }
 
-    /// Puts back what [`Self::memory`] returned.
-    pub fn restore(&mut self, memory: CollisionMemory) {
-        self.influence = memory.0;
+    /// Puts back what [`Self::save_memory`] saved.
+    pub fn restore_memory(&mut self, memory: &CollisionMemory) {
+        self.influence.clone_from(&memory.0);
     }
 
     /// Detects and resolves this step's collisions between `window`'s start
