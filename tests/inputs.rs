@@ -92,6 +92,14 @@ fn bad_inputs_get_clear_errors_naming_the_file_and_the_problem() {
         ),
         (vec![("scene.toml", format!("{GOOD_HEAD}preset = \"velvet\"\n{grid}"))], vec!["unknown preset 'velvet'"]),
         (
+            vec![("scene.toml", format!("{GOOD_HEAD}preset = \"cotton\"\n{grid}[camera]\npitch_deg = 95.0\n"))],
+            vec!["scene.toml", "camera.pitch_deg", "95", "degrees"],
+        ),
+        (
+            vec![("scene.toml", format!("{GOOD_HEAD}preset = \"cotton\"\n{grid}[camera]\nzoom = 2.0\n"))],
+            vec!["unknown field `zoom`"],
+        ),
+        (
             vec![
                 ("scene.toml", format!("{GOOD_HEAD}preset = \"cotton\"\nmesh = {{ obj = \"empty.obj\" }}\n")),
                 ("empty.obj", "# nothing\n".into()),

@@ -23,6 +23,10 @@
 //! shape = { sphere = { radius_m = 0.3 } }
 //! position_m = [0.0, 0.5, 0.0]
 //! motion = { angular_velocity_deg_per_s = [0.0, 360.0, 0.0], start_s = 1.0 }
+//!
+//! [camera]                                # optional: renders frame the scene by themselves
+//! yaw_deg = 30.0
+//! pitch_deg = 20.0
 //! ```
 
 use std::path::PathBuf;
@@ -55,6 +59,43 @@ pub struct SceneFile {
     /// The obstacles.
     #[serde(default, rename = "collider")]
     pub colliders: Vec<ColliderSpec>,
+    /// How renders and the editor's viewport look at the scene.
+    #[serde(default, skip_serializing_if = "CameraSpec::is_automatic")]
+    pub camera: CameraSpec,
+}
+
+/// The camera orbit of renders and of the editor's first view. Every key is
+/// optional: by default the camera frames the scene's first frame from a
+/// three-quarter view.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Angle about the vertical axis from +Z towards +X, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub yaw_deg: Option<f64>,
+    /// Elevation above the horizontal (positive looks down), degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pitch_deg: Option<f64>,
+    /// Vertical field of view, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fov_deg: Option<f64>,
+    /// Distance from the target, m (default: what frames the scene).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance_m: Option<f64>,
+    /// Point looked at, m (default: the centre of the scene's bounds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_m: Option<[f64; 3]>,
+    /// When given, the camera circles the scene once in this period (a
+    /// turntable), s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turntable_period_s: Option<f64>,
+}
+
+impl CameraSpec {
+    /// Whether nothing is set (the camera frames the scene by itself).
+    pub fn is_automatic(&self) -> bool {
+        *self == CameraSpec::default()
+    }
 }
 
 /// Frame rate and frame range. Frame 0 is the initial state; frames

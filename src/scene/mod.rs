@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Similarity3, Translation3, UnitQuaternion, Vector3};
 
-use self::file::{ColliderSpec, GarmentSpec, MeshSpec, PinSpec, SceneFile, ShapeSpec};
+use self::file::{CameraSpec, ColliderSpec, GarmentSpec, MeshSpec, PinSpec, SceneFile, ShapeSpec};
 use self::preset::{Appearance, Preset, PresetError};
 use crate::io::obj::{ObjError, read_obj};
 use crate::mesh::validate::MeshReport;
@@ -257,6 +257,7 @@ impl Resolver<'_> {
             }
         }
         let collision = self.collision(&file.collision)?;
+        self.camera(&file.camera)?;
         let fps = file.time.fps;
         let steps_per_frame = solver.steps_per_frame.unwrap_or_else(|| {
             let finest = garments.iter().map(|g| g.fabric.time_step_s).fold(f64::INFINITY, f64::min);
@@ -280,6 +281,25 @@ impl Resolver<'_> {
             collision,
             file,
         })
+    }
+
+    fn camera(&self, camera: &CameraSpec) -> Result<(), SceneError> {
+        let optional = [
+            ("camera.yaw_deg", camera.yaw_deg, -360.0, 360.0, "degrees"),
+            ("camera.pitch_deg", camera.pitch_deg, -89.0, 89.0, "degrees"),
+            ("camera.fov_deg", camera.fov_deg, 5.0, 120.0, "degrees"),
+            ("camera.distance_m", camera.distance_m, 0.01, 1000.0, "m"),
+            ("camera.turntable_period_s", camera.turntable_period_s, 0.1, 1e5, "s"),
+        ];
+        for (what, value, low, high, unit) in optional {
+            if let Some(v) = value {
+                self.check(what, v, |v| (low..=high).contains(&v), &format!("{low} to {high} {unit}"))?;
+            }
+        }
+        for v in camera.target_m.iter().flatten() {
+            self.check("camera.target_m", *v, |_| true, "finite coordinates, m")?;
+        }
+        Ok(())
     }
 
     fn garment(&self, spec: &GarmentSpec, file: &SceneFile, meshes: &[MeshCollider]) -> Result<Garment, SceneError> {

@@ -63,11 +63,42 @@ pub struct Appearance {
     pub sheen_color: [f32; 3],
     /// Sheen roughness, 0..1.
     pub sheen_roughness: f32,
+    /// Colour of the back side, linear RGB in 0..1 (default: the base colour).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub back_color: Option<[f32; 3]>,
+}
+
+impl Appearance {
+    /// Checks every colour channel and roughness is within 0..1.
+    fn validate(&self) -> Result<(), String> {
+        let colors = [
+            ("base_color", Some(self.base_color)),
+            ("sheen_color", Some(self.sheen_color)),
+            ("back_color", self.back_color),
+        ];
+        for (key, rgb) in colors {
+            if let Some(rgb) = rgb.filter(|c| !c.iter().all(|v| (0.0..=1.0).contains(v))) {
+                return Err(format!("{key} = {rgb:?}: each channel must be in 0..1 (linear RGB)"));
+            }
+        }
+        for (key, value) in [("roughness", self.roughness), ("sheen_roughness", self.sheen_roughness)] {
+            if !(0.0..=1.0).contains(&value) {
+                return Err(format!("{key} = {value}: must be in 0..1"));
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Default for Appearance {
     fn default() -> Self {
-        Appearance { base_color: [0.7, 0.7, 0.7], roughness: 0.8, sheen_color: [0.8; 3], sheen_roughness: 0.5 }
+        Appearance {
+            base_color: [0.7, 0.7, 0.7],
+            roughness: 0.8,
+            sheen_color: [0.8; 3],
+            sheen_roughness: 0.5,
+            back_color: None,
+        }
     }
 }
 
@@ -97,6 +128,14 @@ pub enum PresetError {
         origin: String,
         /// What is wrong, with line and column.
         message: String,
+    },
+    /// An `[appearance]` value is out of range.
+    #[error("preset {origin}: appearance: {problem}")]
+    Appearance {
+        /// File path or built-in name.
+        origin: String,
+        /// The value and its allowed range.
+        problem: String,
     },
     /// A parameter is out of range.
     #[error("preset {origin}: {source}")]
@@ -148,6 +187,10 @@ impl Preset {
         }
         let preset: Preset = table.try_into().map_err(|e: toml::de::Error| parse_error(e.to_string()))?;
         preset.fabric.validate().map_err(|source| PresetError::Invalid { origin: origin.to_owned(), source })?;
+        preset
+            .appearance
+            .validate()
+            .map_err(|problem| PresetError::Appearance { origin: origin.to_owned(), problem })?;
         Ok(preset)
     }
 
@@ -172,6 +215,14 @@ mod tests {
             let w = preset.fabric.area_density_kg_per_m2 * 9.81;
             assert!((preset.fabric.bend_stiffness_n_m / (w * c * c * c) - 1.0).abs() < 1e-3, "{name}");
         }
+    }
+
+    #[test]
+    fn appearance_values_out_of_range_name_the_key() {
+        let text =
+            BUILT_IN.iter().find(|(n, _)| *n == "silk").unwrap().1.replace("roughness = 0.45", "roughness = 1.5");
+        let e = Preset::parse(&text, "mine.toml", &toml::Table::new()).unwrap_err().to_string();
+        assert!(e.contains("mine.toml") && e.contains("roughness = 1.5") && e.contains("0..1"), "{e}");
     }
 
     #[test]
