@@ -14,5 +14,7 @@ pub mod bench;
 pub mod io;
 pub mod mesh;
 pub mod metrics;
+pub mod render;
 pub mod scene;
 pub mod sim;
+pub mod stage;

@@ -1,0 +1,630 @@
+//! The wgpu renderer: a shadow pass for the key light, then one PBR pass
+//! (4× MSAA) that exposes and tone-maps into an sRGB target.
+
+use glam::camera::rh::{proj::directx, view::look_at_mat4};
+use glam::{Mat4, Vec3};
+use wgpu::util::DeviceExt;
+
+use super::camera::{Bounds, OrbitCamera};
+use super::draw::{DrawMesh, Material, Vertex};
+use super::gpu::Gpu;
+use super::lights::{LightRig, MAX_LIGHTS, PlacedLight};
+use super::sheen::{MIN_SHEEN_ROUGHNESS, SHEEN_TABLE_SIZE, sheen_albedo_table};
+
+/// Colour format of the render target (the hardware does the sRGB encoding).
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// Depth format of the main pass and the shadow map.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// Samples per pixel (MSAA).
+pub const SAMPLE_COUNT: u32 = 4;
+/// Side of the square shadow map, texels.
+const SHADOW_MAP_SIZE: u32 = 2048;
+/// Widest shadow filter (penumbra radius), texels.
+const MAX_PCF_RADIUS_TEXELS: f32 = 24.0;
+
+/// Everything about one image except the meshes: camera, lights, exposure.
+#[derive(Clone, Debug)]
+pub struct View {
+    /// The camera.
+    pub camera: OrbitCamera,
+    /// Image width / height.
+    pub aspect: f32,
+    /// The lights, placed in the world.
+    pub lights: Vec<PlacedLight>,
+    /// Sky irradiance (colour × lux) on an upward-facing surface.
+    pub sky_irradiance: Vec3,
+    /// Ground-bounce irradiance (colour × lux) on a downward-facing surface.
+    pub ground_irradiance: Vec3,
+    /// Scene luminance to tone-mapper input, 1/(cd/m²).
+    pub exposure: f32,
+    /// Clear colour, display-linear RGB.
+    pub background: [f32; 3],
+    /// What the shadow map must cover (the objects that cast and catch shadows).
+    pub shadow_bounds: Bounds,
+    /// Half size of the ground, m (sets the far plane).
+    pub ground_extent_m: f32,
+}
+
+impl View {
+    /// The view of `rig` at time `t_s` through `camera`.
+    pub fn new(camera: OrbitCamera, aspect: f32, rig: &LightRig, t_s: f32, shadow_bounds: Bounds) -> View {
+        let a = &rig.ambient;
+        View {
+            camera,
+            aspect,
+            lights: rig.placed(camera.yaw_deg, t_s),
+            sky_irradiance: Vec3::from(a.sky_color) * a.sky_illuminance_lux,
+            ground_irradiance: Vec3::from(a.ground_color) * a.ground_illuminance_lux,
+            exposure: rig.exposure(),
+            background: rig.background,
+            shadow_bounds,
+            ground_extent_m: 20.0,
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct LightUniform {
+    towards_light: [f32; 4],
+    illuminance: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct FrameUniforms {
+    clip_from_world: [[f32; 4]; 4],
+    light_clip_from_world: [[f32; 4]; 4],
+    camera_position: [f32; 4],
+    sky_irradiance: [f32; 4],
+    ground_irradiance: [f32; 4],
+    params: [f32; 4],
+    shadow: [f32; 4],
+    lights: [LightUniform; MAX_LIGHTS],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ObjectUniforms {
+    world_from_model: [[f32; 4]; 4],
+    base: [f32; 4],
+    back: [f32; 4],
+    sheen: [f32; 4],
+    params: [f32; 4],
+}
+
+impl ObjectUniforms {
+    fn new(world_from_model: Mat4, m: &Material) -> Self {
+        let [r, g, b] = m.base_color;
+        let [br, bg, bb] = m.back_color;
+        let [sr, sg, sb] = m.sheen_color;
+        ObjectUniforms {
+            world_from_model: world_from_model.to_cols_array_2d(),
+            base: [r, g, b, m.metallic],
+            back: [br, bg, bb, m.roughness],
+            sheen: [sr, sg, sb, m.sheen_roughness.max(MIN_SHEEN_ROUGHNESS as f32)],
+            params: [m.grid_spacing_m, 0.0, 0.0, 0.0],
+        }
+    }
+}
+
+/// A mesh on the GPU.
+struct GpuMesh {
+    vertices: wgpu::Buffer,
+    vertex_count: usize,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    uniforms: wgpu::Buffer,
+    material: Material,
+    bind_group: wgpu::BindGroup,
+    casts_shadow: bool,
+}
+
+/// Pipelines, the shadow map and the uploaded meshes.
+pub struct Renderer {
+    gpu: Gpu,
+    pbr: wgpu::RenderPipeline,
+    shadow: wgpu::RenderPipeline,
+    object_layout: wgpu::BindGroupLayout,
+    frame_uniforms: wgpu::Buffer,
+    frame_bind_group: wgpu::BindGroup,
+    shadow_uniforms: wgpu::Buffer,
+    shadow_bind_group: wgpu::BindGroup,
+    shadow_map: wgpu::TextureView,
+    base_sampler: wgpu::Sampler,
+    white: wgpu::TextureView,
+    meshes: Vec<GpuMesh>,
+}
+
+fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+fn sampler_entry(binding: u32, kind: wgpu::SamplerBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Sampler(kind),
+        count: None,
+    }
+}
+
+fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    const ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<Vertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRIBUTES,
+    }
+}
+
+/// A 2D texture with data, sampled in shaders.
+fn texture_with_data(
+    gpu: &Gpu,
+    label: &str,
+    size: (u32, u32),
+    format: wgpu::TextureFormat,
+    data: &[u8],
+) -> wgpu::TextureView {
+    gpu.device
+        .create_texture_with_data(
+            &gpu.queue,
+            &wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            data,
+        )
+        .create_view(&wgpu::TextureViewDescriptor::default())
+}
+
+impl Renderer {
+    /// Builds the pipelines and the shadow map on `gpu`.
+    pub fn new(gpu: &Gpu) -> Renderer {
+        let device = &gpu.device;
+        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
+                texture_entry(1, wgpu::TextureSampleType::Depth),
+                sampler_entry(2, wgpu::SamplerBindingType::Comparison),
+                texture_entry(3, wgpu::TextureSampleType::Float { filterable: true }),
+                sampler_entry(4, wgpu::SamplerBindingType::Filtering),
+            ],
+        });
+        let object_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("object"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
+                texture_entry(1, wgpu::TextureSampleType::Float { filterable: true }),
+                sampler_entry(2, wgpu::SamplerBindingType::Filtering),
+            ],
+        });
+        let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shadow frame"),
+            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX)],
+        });
+
+        let pbr = Self::pbr_pipeline(device, &frame_layout, &object_layout);
+        let shadow = Self::shadow_pipeline(device, &shadow_layout, &object_layout);
+
+        let shadow_map = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("shadow map"),
+                size: wgpu::Extent3d { width: SHADOW_MAP_SIZE, height: SHADOW_MAP_SIZE, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: DEPTH_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
+            .create_view(&wgpu::TextureViewDescriptor::default());
+        let compare_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("shadow compare"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
+        let linear_clamp = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("linear clamp"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let base_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("base colour"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let n = SHEEN_TABLE_SIZE as u32;
+        let sheen_table =
+            texture_with_data(gpu, "sheen albedo", (n, n), wgpu::TextureFormat::R8Unorm, &sheen_albedo_table());
+        let white = texture_with_data(gpu, "white", (1, 1), wgpu::TextureFormat::Rgba8UnormSrgb, &[255; 4]);
+
+        let frame_uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &frame_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_uniforms.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&shadow_map) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&compare_sampler) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&sheen_table) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&linear_clamp) },
+            ],
+        });
+        let shadow_uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("shadow frame"),
+            size: std::mem::size_of::<[[f32; 4]; 4]>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let shadow_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shadow frame"),
+            layout: &shadow_layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: shadow_uniforms.as_entire_binding() }],
+        });
+        Renderer {
+            gpu: gpu.clone(),
+            pbr,
+            shadow,
+            object_layout,
+            frame_uniforms,
+            frame_bind_group,
+            shadow_uniforms,
+            shadow_bind_group,
+            shadow_map,
+            base_sampler,
+            white,
+            meshes: Vec::new(),
+        }
+    }
+
+    fn pbr_pipeline(
+        device: &wgpu::Device,
+        frame: &wgpu::BindGroupLayout,
+        object: &wgpu::BindGroupLayout,
+    ) -> wgpu::RenderPipeline {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("pbr.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/pbr.wgsl").into()),
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("pbr"),
+            bind_group_layouts: &[Some(frame), Some(object)],
+            immediate_size: 0,
+        });
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("pbr"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout())],
+            },
+            // Cloth is two-sided: no culling, the shader flips back-face normals.
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: wgpu::MultisampleState { count: SAMPLE_COUNT, ..Default::default() },
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: COLOR_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+
+    fn shadow_pipeline(
+        device: &wgpu::Device,
+        frame: &wgpu::BindGroupLayout,
+        object: &wgpu::BindGroupLayout,
+    ) -> wgpu::RenderPipeline {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("shadow.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/shadow.wgsl").into()),
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("shadow"),
+            bind_group_layouts: &[Some(frame), Some(object)],
+            immediate_size: 0,
+        });
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("shadow"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_shadow"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout())],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                stencil: Default::default(),
+                // Slope-scaled bias against shadow acne on surfaces lit at grazing angles.
+                bias: wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 },
+            }),
+            multisample: Default::default(),
+            fragment: None,
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+
+    /// Replaces the meshes to draw (uploads geometry, materials and textures).
+    pub fn set_meshes(&mut self, meshes: &[DrawMesh]) {
+        self.meshes = meshes.iter().map(|m| self.upload(m)).collect();
+    }
+
+    fn upload(&self, mesh: &DrawMesh) -> GpuMesh {
+        let device = &self.gpu.device;
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(&mesh.name),
+            contents: bytemuck::cast_slice(&mesh.vertices),
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        });
+        let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(&mesh.name),
+            contents: bytemuck::cast_slice(&mesh.indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        let uniforms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(&mesh.name),
+            contents: bytemuck::bytes_of(&ObjectUniforms::new(mesh.world_from_model, &mesh.material)),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let texture = mesh.material.texture.as_ref().map(|image| {
+            texture_with_data(
+                &self.gpu,
+                &mesh.name,
+                image.dimensions(),
+                wgpu::TextureFormat::Rgba8UnormSrgb,
+                image.as_raw(),
+            )
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(&mesh.name),
+            layout: &self.object_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(texture.as_ref().unwrap_or(&self.white)),
+                },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&self.base_sampler) },
+            ],
+        });
+        GpuMesh {
+            vertices,
+            vertex_count: mesh.vertices.len(),
+            indices,
+            index_count: mesh.indices.len() as u32,
+            uniforms,
+            material: mesh.material.clone(),
+            bind_group,
+            casts_shadow: mesh.casts_shadow,
+        }
+    }
+
+    /// New vertex positions and normals for mesh `index` (same count as uploaded).
+    pub fn update_vertices(&mut self, index: usize, vertices: &[Vertex]) {
+        if let Some(mesh) = self.meshes.get(index) {
+            debug_assert_eq!(mesh.vertex_count, vertices.len());
+            let n = mesh.vertex_count.min(vertices.len());
+            self.gpu.queue.write_buffer(&mesh.vertices, 0, bytemuck::cast_slice(&vertices[..n]));
+        }
+    }
+
+    /// New placement and material of mesh `index` (the texture stays).
+    pub fn update_placement(&mut self, index: usize, world_from_model: Mat4, material: Option<&Material>) {
+        if let Some(mesh) = self.meshes.get_mut(index) {
+            if let Some(m) = material {
+                mesh.material = Material { texture: mesh.material.texture.clone(), ..m.clone() };
+            }
+            let uniforms = ObjectUniforms::new(world_from_model, &mesh.material);
+            self.gpu.queue.write_buffer(&mesh.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        }
+    }
+
+    /// Records the shadow pass and the main pass of `view` into `encoder`:
+    /// colour into `color` (multisampled, resolved into `resolve`), depth into
+    /// `depth` (multisampled).
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &View,
+        color: &wgpu::TextureView,
+        resolve: Option<&wgpu::TextureView>,
+        depth: &wgpu::TextureView,
+    ) {
+        let key = view.lights.iter().find(|l| l.shadow);
+        let shadow = match key {
+            Some(l) => ShadowProjection::around(l.towards_light, &view.shadow_bounds),
+            None => ShadowProjection::none(),
+        };
+        let light_clip_from_world = shadow.clip_from_world.to_cols_array_2d();
+        self.gpu.queue.write_buffer(&self.shadow_uniforms, 0, bytemuck::bytes_of(&light_clip_from_world));
+        self.gpu.queue.write_buffer(&self.frame_uniforms, 0, bytemuck::bytes_of(&frame_uniforms(view, &shadow)));
+        self.shadow_pass(encoder);
+        let clear = view.background.map(f64::from);
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("pbr"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: color,
+                depth_slice: None,
+                resolve_target: resolve,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color { r: clear[0], g: clear[1], b: clear[2], a: 1.0 }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pbr);
+        pass.set_bind_group(0, &self.frame_bind_group, &[]);
+        for mesh in &self.meshes {
+            draw(&mut pass, mesh);
+        }
+    }
+
+    fn shadow_pass(&self, encoder: &mut wgpu::CommandEncoder) {
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("shadow"),
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.shadow_map,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.shadow);
+        pass.set_bind_group(0, &self.shadow_bind_group, &[]);
+        for mesh in self.meshes.iter().filter(|m| m.casts_shadow) {
+            draw(&mut pass, mesh);
+        }
+    }
+}
+
+fn draw(pass: &mut wgpu::RenderPass<'_>, mesh: &GpuMesh) {
+    pass.set_bind_group(1, &mesh.bind_group, &[]);
+    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+}
+
+/// The key light's orthographic projection.
+struct ShadowProjection {
+    /// Shadow-map clip space from world space.
+    clip_from_world: Mat4,
+    /// World size of one shadow texel, m.
+    texel_m: f32,
+    /// Depth covered by the projection (NDC depth 0..1), m.
+    depth_range_m: f32,
+}
+
+impl ShadowProjection {
+    /// The projection of a light towards `towards_light` around `bounds`.
+    fn around(towards_light: Vec3, bounds: &Bounds) -> ShadowProjection {
+        let centre = bounds.centre();
+        let radius = bounds.radius().max(1e-3);
+        // A low light throws long shadows: widen the map as the light sinks.
+        let half = (radius / towards_light.y.abs().max(0.35)).min(3.0 * radius);
+        let up = if towards_light.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+        let view = look_at_mat4(centre + towards_light * 4.0 * half, centre, up);
+        let depth_range_m = 8.0 * half;
+        let projection = directx::orthographic(-half, half, -half, half, 0.0, depth_range_m);
+        ShadowProjection {
+            clip_from_world: projection * view,
+            texel_m: 2.0 * half / SHADOW_MAP_SIZE as f32,
+            depth_range_m,
+        }
+    }
+
+    /// No shadow-casting light.
+    fn none() -> ShadowProjection {
+        ShadowProjection { clip_from_world: Mat4::IDENTITY, texel_m: 0.0, depth_range_m: 0.0 }
+    }
+}
+
+fn frame_uniforms(view: &View, shadow: &ShadowProjection) -> FrameUniforms {
+    let (light_clip_from_world, texel_m, depth_range_m) =
+        (shadow.clip_from_world, shadow.texel_m, shadow.depth_range_m);
+    let camera = &view.camera;
+    let clip_from_world = camera.projection(view.aspect, view.ground_extent_m) * camera.view();
+    let mut lights = [LightUniform { towards_light: [0.0; 4], illuminance: [0.0; 4] }; MAX_LIGHTS];
+    for (slot, l) in lights.iter_mut().zip(&view.lights) {
+        slot.towards_light = l.towards_light.extend(if l.shadow { 1.0 } else { 0.0 }).to_array();
+        slot.illuminance = l.illuminance.extend(0.0).to_array();
+    }
+    // The shader sizes each penumbra from the occluder gap (PCSS): a gap of
+    // `d` m behind an occluder lit by a source of angular radius θ blurs
+    // `d tan θ` m. The depth range of the light's projection converts depth
+    // differences to metres; the search covers the gap across the scene.
+    let softness = view.lights.iter().find(|l| l.shadow).map_or(0.0, |l| l.softness_rad);
+    let (texels_per_depth, widest_texels) = match texel_m > 0.0 {
+        true => {
+            let texels_per_m = softness.tan() / texel_m;
+            (
+                depth_range_m * texels_per_m,
+                (view.shadow_bounds.radius() * texels_per_m).clamp(1.0, MAX_PCF_RADIUS_TEXELS),
+            )
+        }
+        false => (0.0, 1.0),
+    };
+    FrameUniforms {
+        clip_from_world: clip_from_world.to_cols_array_2d(),
+        light_clip_from_world: light_clip_from_world.to_cols_array_2d(),
+        camera_position: camera.eye().extend(1.0).to_array(),
+        sky_irradiance: view.sky_irradiance.extend(0.0).to_array(),
+        ground_irradiance: view.ground_irradiance.extend(0.0).to_array(),
+        params: [view.exposure, 1.0 / SHADOW_MAP_SIZE as f32, widest_texels, view.lights.len().min(MAX_LIGHTS) as f32],
+        shadow: [1.5 * texel_m, 1e-4, texels_per_depth, 0.0],
+        lights,
+    }
+}

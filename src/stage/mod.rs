@@ -1,0 +1,315 @@
+//! The scene as the renderer sees it: each garment as meshes whose vertices
+//! follow the simulated (or baked) positions, with normals recomputed every
+//! frame; the colliders tessellated and placed at the frame's time; a ground
+//! where the scene has a plane; the camera from the scene file or framed on
+//! the first frame.
+//!
+//! This is the only place that knows both the scene and the renderer: the
+//! renderer draws plain meshes, the simulation knows nothing of drawing.
+
+pub mod baked;
+pub mod offscreen;
+pub mod tessellate;
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
+use nalgebra::{Isometry3, Vector3};
+
+use self::tessellate::shape_mesh;
+use crate::mesh::normals::{VertexTriangles, vertex_normals};
+use crate::render::camera::{DEFAULT_FOV_Y_DEG, DEFAULT_PITCH_DEG, DEFAULT_YAW_DEG};
+use crate::render::{Bounds, DrawMesh, LightRig, Material, OrbitCamera, RenderError, Renderer, Vertex, View};
+use crate::scene::file::CameraSpec;
+use crate::scene::{Garment, Scene};
+use crate::sim::colliders::Shape;
+use crate::sim::motion::Placement;
+
+/// Half size of the drawn ground square, m.
+pub const GROUND_HALF_SIZE_M: f32 = 20.0;
+/// Spacing of the ground's grid lines, m.
+const GROUND_GRID_M: f32 = 0.5;
+
+/// One garment's drawing: pieces (one per material part) that share its vertices.
+struct GarmentLook {
+    /// Index of its first particle in the scene's concatenated positions.
+    first_particle: usize,
+    /// Its triangles (garment-local vertex indices).
+    triangles: Vec<[u32; 3]>,
+    /// Triangles around each vertex, for the per-frame normals.
+    around: VertexTriangles,
+    /// Drawn pieces.
+    pieces: Vec<Piece>,
+}
+
+/// A drawn part of a garment: its own vertices (split at UV seams).
+struct Piece {
+    /// Index of its mesh in [`Stage::meshes`].
+    mesh: usize,
+    /// Per drawn vertex, the garment vertex it shows.
+    garment_vertex: Vec<u32>,
+}
+
+/// A drawn collider (or the ground) and how it moves.
+struct PlacedMesh {
+    mesh: usize,
+    placement: Placement,
+}
+
+/// Everything drawn for a scene, ready for a [`Renderer`].
+pub struct Stage {
+    garments: Vec<GarmentLook>,
+    placed: Vec<PlacedMesh>,
+    meshes: Vec<DrawMesh>,
+    rest_bounds: Bounds,
+    camera: CameraSpec,
+}
+
+fn to_mat4(isometry: &Isometry3<f64>) -> Mat4 {
+    let m = isometry.to_homogeneous().cast::<f32>();
+    Mat4::from_cols_slice(m.as_slice())
+}
+
+fn to_vec3(p: &Vector3<f64>) -> Vec3 {
+    Vec3::new(p.x as f32, p.y as f32, p.z as f32)
+}
+
+impl Stage {
+    /// The drawing of `scene` at its initial state (loads the garments' textures).
+    pub fn new(scene: &Scene) -> Result<Stage, RenderError> {
+        let mut stage = Stage {
+            garments: Vec::new(),
+            placed: Vec::new(),
+            meshes: Vec::new(),
+            rest_bounds: Bounds { min: Vec3::ZERO, max: Vec3::ZERO },
+            camera: scene.file.camera.clone(),
+        };
+        let mut first_particle = 0;
+        for garment in &scene.garments {
+            stage.add_garment(garment, first_particle)?;
+            first_particle += garment.mesh.vertex_count();
+        }
+        let solid = Material::matte([0.42, 0.45, 0.5], 0.5);
+        for collider in &scene.colliders {
+            let mesh = match shape_mesh(&collider.shape) {
+                Some(mesh) => DrawMesh {
+                    name: collider.name.clone(),
+                    vertices: mesh.vertices,
+                    indices: mesh.indices,
+                    material: solid.clone(),
+                    world_from_model: Mat4::IDENTITY,
+                    casts_shadow: true,
+                },
+                None if collider.shape == Shape::Plane => ground(&collider.name),
+                None => continue,
+            };
+            stage.add_placed(mesh, collider.placement);
+        }
+        for collider in &scene.mesh_colliders {
+            let normals = vertex_normals(&collider.vertices, &collider.triangles);
+            let vertices = collider
+                .vertices
+                .iter()
+                .zip(&normals)
+                .map(|(p, n)| Vertex { position: to_vec3(p).into(), normal: to_vec3(n).into(), uv: [0.0; 2] })
+                .collect();
+            let mesh = DrawMesh {
+                name: collider.name.clone(),
+                vertices,
+                indices: collider.triangles.iter().flatten().copied().collect(),
+                material: solid.clone(),
+                world_from_model: Mat4::IDENTITY,
+                casts_shadow: true,
+            };
+            stage.add_placed(mesh, collider.placement);
+        }
+        let rest: Vec<Vector3<f64>> = scene.garments.iter().flat_map(|g| g.mesh.positions.iter().copied()).collect();
+        stage.pose_meshes(&rest, 0.0);
+        stage.rest_bounds = stage.bounds();
+        Ok(stage)
+    }
+
+    fn add_placed(&mut self, mesh: DrawMesh, placement: Placement) {
+        self.placed.push(PlacedMesh { mesh: self.meshes.len(), placement });
+        self.meshes.push(mesh);
+    }
+
+    fn add_garment(&mut self, garment: &Garment, first_particle: usize) -> Result<(), RenderError> {
+        let mesh = &garment.mesh;
+        let surface = &mesh.surface;
+        let whole = [crate::mesh::Part {
+            name: garment.name.clone(),
+            material: None,
+            first_triangle: 0,
+            triangle_count: mesh.triangles.len(),
+        }];
+        let parts = if surface.parts.is_empty() { &whole[..] } else { &surface.parts[..] };
+        let appearance = garment.appearance();
+        let mut textures: HashMap<&Path, Arc<image::RgbaImage>> = HashMap::new();
+        let mut pieces = Vec::new();
+        for part in parts {
+            let source = part.material.and_then(|m| surface.materials.get(m));
+            let base_color = source.map_or(appearance.base_color, |m| m.diffuse);
+            let texture = match source.and_then(|m| m.diffuse_texture.as_deref()) {
+                Some(path) => Some(match textures.get(path) {
+                    Some(t) => t.clone(),
+                    None => {
+                        let loaded = Arc::new(load_texture(path)?);
+                        textures.insert(path, loaded.clone());
+                        loaded
+                    }
+                }),
+                None => None,
+            };
+            let material = Material {
+                base_color,
+                back_color: appearance.back_color.unwrap_or(base_color),
+                metallic: 0.0,
+                roughness: appearance.roughness,
+                sheen_color: appearance.sheen_color,
+                sheen_roughness: appearance.sheen_roughness,
+                grid_spacing_m: 0.0,
+                texture,
+            };
+            let (draw, garment_vertex) = piece_mesh(garment, part, material);
+            pieces.push(Piece { mesh: self.meshes.len(), garment_vertex });
+            self.meshes.push(draw);
+        }
+        self.garments.push(GarmentLook {
+            first_particle,
+            triangles: mesh.triangles.clone(),
+            around: VertexTriangles::new(&mesh.triangles, mesh.vertex_count()),
+            pieces,
+        });
+        Ok(())
+    }
+
+    /// The meshes to give [`Renderer::set_meshes`], in their initial pose.
+    pub fn meshes(&self) -> &[DrawMesh] {
+        &self.meshes
+    }
+
+    /// Moves the meshes to `positions` (every garment's particles, concatenated
+    /// in scene order, m) and the colliders to time `t_s`, here and in `renderer`.
+    pub fn pose(&mut self, renderer: &mut Renderer, positions: &[Vector3<f64>], t_s: f64) {
+        self.pose_meshes(positions, t_s);
+        for look in &self.garments {
+            for piece in &look.pieces {
+                renderer.update_vertices(piece.mesh, &self.meshes[piece.mesh].vertices);
+            }
+        }
+        for placed in &self.placed {
+            let mesh = &self.meshes[placed.mesh];
+            renderer.update_placement(placed.mesh, mesh.world_from_model, None);
+        }
+    }
+
+    fn pose_meshes(&mut self, positions: &[Vector3<f64>], t_s: f64) {
+        for look in &self.garments {
+            let end = look.first_particle + look.around.vertex_count();
+            let Some(own) = positions.get(look.first_particle..end) else { continue };
+            let normals = look.around.normals(own, &look.triangles);
+            for piece in &look.pieces {
+                let vertices = &mut self.meshes[piece.mesh].vertices;
+                for (v, &g) in vertices.iter_mut().zip(&piece.garment_vertex) {
+                    v.position = to_vec3(&own[g as usize]).into();
+                    v.normal = to_vec3(&normals[g as usize]).into();
+                }
+            }
+        }
+        for placed in &self.placed {
+            self.meshes[placed.mesh].world_from_model = to_mat4(&placed.placement.world_from_local(t_s));
+        }
+    }
+
+    /// Bounds of the current pose: garments and bounded colliders (not the ground).
+    pub fn bounds(&self) -> Bounds {
+        let points =
+            self.meshes.iter().filter(|m| m.casts_shadow).flat_map(|m| {
+                m.vertices.iter().map(move |v| m.world_from_model.transform_point3(Vec3::from(v.position)))
+            });
+        Bounds::around(points).unwrap_or(Bounds { min: Vec3::splat(-0.5), max: Vec3::splat(0.5) })
+    }
+
+    /// The camera at time `t_s` for an image of `aspect`: the scene file's
+    /// orbit, with what it leaves out framed on the first frame.
+    pub fn camera(&self, aspect: f32, t_s: f64) -> OrbitCamera {
+        let spec = &self.camera;
+        let yaw = spec.yaw_deg.map_or(DEFAULT_YAW_DEG, |v| v as f32);
+        let pitch = spec.pitch_deg.map_or(DEFAULT_PITCH_DEG, |v| v as f32);
+        let fov = spec.fov_deg.map_or(DEFAULT_FOV_Y_DEG, |v| v as f32);
+        let mut camera = OrbitCamera::framing(&self.rest_bounds, aspect, yaw, pitch, fov);
+        if let Some(d) = spec.distance_m {
+            camera.distance_m = d as f32;
+        }
+        if let Some(target) = spec.target_m {
+            camera.target = Vec3::from(target.map(|c| c as f32));
+        }
+        if let Some(period) = spec.turntable_period_s {
+            camera.yaw_deg += (360.0 * (t_s / period).fract()) as f32;
+        }
+        camera
+    }
+
+    /// The view of the current pose at time `t_s` under `rig`.
+    pub fn view(&self, aspect: f32, rig: &LightRig, t_s: f64) -> View {
+        let camera = self.camera(aspect, t_s);
+        let shadow_bounds = self.rest_bounds.union(self.bounds());
+        let mut view = View::new(camera, aspect, rig, t_s as f32, shadow_bounds);
+        view.ground_extent_m = GROUND_HALF_SIZE_M;
+        view
+    }
+}
+
+/// The drawn mesh of one part of a garment: a vertex per distinct (vertex, UV)
+/// corner, so texture seams stay sharp while positions stay shared.
+fn piece_mesh(garment: &Garment, part: &crate::mesh::Part, material: Material) -> (DrawMesh, Vec<u32>) {
+    let mesh = &garment.mesh;
+    let surface = &mesh.surface;
+    let mut index_of: HashMap<(u32, u32), u32> = HashMap::new();
+    let (mut vertices, mut garment_vertex, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+    let range = part.first_triangle..part.first_triangle + part.triangle_count;
+    for t in range.clone().filter(|&t| t < mesh.triangles.len()) {
+        for k in 0..3 {
+            let v = mesh.triangles[t][k];
+            let uv_index = surface.triangle_uvs.get(t).map_or(u32::MAX, |uvs| uvs[k]);
+            let next = vertices.len() as u32;
+            let id = *index_of.entry((v, uv_index)).or_insert_with(|| {
+                let uv = surface.uvs.get(uv_index as usize).map_or([0.0; 2], |&[u, w]| [u, 1.0 - w]);
+                vertices.push(Vertex { position: [0.0; 3], normal: [0.0, 1.0, 0.0], uv });
+                garment_vertex.push(v);
+                next
+            });
+            indices.push(id);
+        }
+    }
+    let name = format!("{}.{}", garment.name, part.name);
+    let draw = DrawMesh { name, vertices, indices, material, world_from_model: Mat4::IDENTITY, casts_shadow: true };
+    (draw, garment_vertex)
+}
+
+/// The ground: a large square on the plane's surface with grid lines.
+fn ground(name: &str) -> DrawMesh {
+    let h = GROUND_HALF_SIZE_M;
+    let corners = [[-h, -h], [h, -h], [h, h], [-h, h]];
+    let vertices =
+        corners.iter().map(|&[x, z]| Vertex { position: [x, 0.0, z], normal: [0.0, 1.0, 0.0], uv: [x, z] }).collect();
+    let material = Material { grid_spacing_m: GROUND_GRID_M, ..Material::matte([0.5, 0.49, 0.47], 0.85) };
+    DrawMesh {
+        name: name.to_owned(),
+        vertices,
+        indices: vec![0, 2, 1, 0, 3, 2],
+        material,
+        world_from_model: Mat4::IDENTITY,
+        casts_shadow: false,
+    }
+}
+
+/// Reads a base-colour texture.
+fn load_texture(path: &Path) -> Result<image::RgbaImage, RenderError> {
+    let image =
+        image::open(path).map_err(|e| RenderError::Texture { path: path.to_owned(), problem: e.to_string() })?;
+    Ok(image.to_rgba8())
+}
