@@ -11,6 +11,7 @@
 
 pub mod bake;
 pub mod bench;
+pub mod body;
 pub mod io;
 pub mod mesh;
 pub mod metrics;

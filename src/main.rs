@@ -90,6 +90,16 @@ enum Command {
         #[arg(long)]
         scene: Option<PathBuf>,
     },
+    /// Read a body (binary FBX 7.x) and report its mesh, skeleton and motion:
+    /// with --motion, how another file's motion fits this body's bones. Prints
+    /// the time to skin one frame.
+    Body {
+        /// The body's FBX file.
+        body: PathBuf,
+        /// Drive the body with this file's motion instead of its own.
+        #[arg(long)]
+        motion: Option<PathBuf>,
+    },
     /// Measure simulation speed (ms per frame, per stage) with strain, on the
     /// standard scenes.
     Bench {
@@ -170,6 +180,7 @@ fn main() -> ExitCode {
             run_accuracy(&scene, &steps, &tolerances, frames, out.as_deref())
         }
         Command::Bench { sweep: None, suite, frames, out } => run_bench(suite, frames, out.as_deref()),
+        Command::Body { body, motion } => run_body(&body, motion.as_deref()),
         Command::Render { source, out, frames, light, size, turntable, scene } => {
             let request = RenderRequest { frames, light, size, turntable, scene };
             run_render(&source, &out, &request)
@@ -429,6 +440,57 @@ fn run_render(source: &Path, out: &Path, request: &RenderRequest) -> Result<(), 
         out.display(),
         bake::summary::median(&times_ms),
         gpu.adapter_name,
+    );
+    Ok(())
+}
+
+fn run_body(path: &Path, motion_path: Option<&Path>) -> Result<(), Failure> {
+    use drape::io::fbx::read_fbx;
+    let body = read_fbx(path).map_err(input)?;
+    let (low, high) = body.mesh.bounds().unwrap_or_default();
+    println!(
+        "{}: {} vertices, {} triangles, {} bones, {:.2} m tall",
+        path.display(),
+        body.mesh.vertex_count(),
+        body.mesh.triangles.len(),
+        body.skeleton.bones.len(),
+        high.y - low.y
+    );
+    let motion = match motion_path {
+        Some(other) => {
+            let source = read_fbx(other).map_err(input)?;
+            source.motion.ok_or_else(|| Failure::Input(format!("{} has no animation", other.display())))?
+        }
+        None => match body.motion.clone() {
+            Some(m) => m,
+            None => {
+                println!("no animation: a static body");
+                return Ok(());
+            }
+        },
+    };
+    let matched = motion.bone_match(&body.skeleton);
+    println!(
+        "motion: {:.2} s, {} animated bones, {} found in this body",
+        motion.duration_s(),
+        motion.bones.len(),
+        matched.matched.len()
+    );
+    if !matched.is_complete() {
+        println!("bones of the motion this body lacks (not moved): {}", matched.missing_in_skeleton.join(", "));
+    }
+    let frames = (motion.duration_s() * 30.0).floor() as usize + 1;
+    let mut posed = Vec::new();
+    let mut times_ms = Vec::with_capacity(frames);
+    for frame in 0..frames {
+        let started = std::time::Instant::now();
+        body.pose_into(&motion, frame as f64 / 30.0, &mut posed);
+        times_ms.push(started.elapsed().as_secs_f64() * 1e3);
+    }
+    println!(
+        "skinning: median {:.3} ms per frame over {frames} frames at 30 fps, {} threads",
+        bake::summary::median(&times_ms),
+        rayon::current_num_threads()
     );
     Ok(())
 }

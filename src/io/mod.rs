@@ -1,5 +1,6 @@
 //! Files in and out: OBJ garments and frames, PC2 point caches, atomic writes.
 
 pub mod atomic;
+pub mod fbx;
 pub mod obj;
 pub mod pc2;

@@ -1,0 +1,174 @@
+//! Bodies from FBX: skinning against Blender's own evaluation, the walk, motion
+//! reuse, and bad files.
+
+use std::path::{Path, PathBuf};
+
+use drape::body::Body;
+use drape::io::fbx::{FbxError, read_fbx};
+use nalgebra::Vector3;
+
+const FPS: f64 = 30.0;
+
+fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+fn body(name: &str) -> Body {
+    read_fbx(&repo(&format!("assets/bodies/{name}.fbx"))).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Every `stride`-th vertex of a fixture written by tools/make_bodies.py.
+fn fixture(path: &Path) -> Vec<Vector3<f64>> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let c: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            Vector3::new(c[0], c[1], c[2])
+        })
+        .collect()
+}
+
+#[test]
+fn skinned_positions_match_blenders_evaluation_within_a_millimetre() {
+    let body = body("female_walk");
+    let motion = body.motion.clone().expect("the walk is animated");
+    let mut posed = Vec::new();
+    for frame in [0, 17, 33, 60] {
+        let expected = fixture(&repo(&format!("tests/fixtures/bodies/female_walk_frame_{frame:03}.obj")));
+        body.pose_into(&motion, f64::from(frame) / FPS, &mut posed);
+        let ours: Vec<Vector3<f64>> = posed.iter().step_by(7).copied().collect();
+        assert_eq!(ours.len(), expected.len(), "frame {frame}: vertex count");
+        let worst = ours.iter().zip(&expected).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        assert!(worst < 1e-3, "frame {frame}: {:.2} mm from Blender's evaluation", worst * 1e3);
+    }
+}
+
+/// Lowest point of each foot (vertices left / right of the body's centre below
+/// ankle height) at every frame of `motion` on `body`.
+fn feet_over_time(body: &Body, motion: &drape::body::motion::Motion) -> Vec<(f64, f64, f64)> {
+    let bind = body.bind_pose();
+    let ankle_height = 0.12;
+    let frames = (motion.duration_s() * FPS).floor() as usize;
+    let mut posed = Vec::new();
+    (0..=frames)
+        .map(|f| {
+            body.pose_into(motion, f as f64 / FPS, &mut posed);
+            let lowest = |left: bool| {
+                posed
+                    .iter()
+                    .zip(&bind)
+                    .filter(|(_, b)| b.y < ankle_height && (b.x > 0.0) == left)
+                    .map(|(p, _)| p.y)
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let centre_z = posed.iter().map(|p| p.z).sum::<f64>() / posed.len() as f64;
+            (lowest(true), lowest(false), centre_z)
+        })
+        .collect()
+}
+
+#[test]
+fn the_walk_keeps_a_foot_on_the_ground_and_travels_forward() {
+    let body = body("female_walk");
+    let motion = body.motion.clone().unwrap();
+    assert!(motion.duration_s() >= 3.0, "at least three steps: {} s", motion.duration_s());
+    let feet = feet_over_time(&body, &motion);
+    for (frame, &(left, right, _)) in feet.iter().enumerate() {
+        // The stance foot is the lower one: within 3 cm of the ground, never below it by more than 5 mm.
+        let stance = left.min(right);
+        assert!(stance.abs() < 0.03 && stance > -0.005, "frame {frame}: stance foot at {stance:.3} m");
+    }
+    // Both feet take turns: each is lifted more than 5 cm at some point.
+    assert!(feet.iter().any(|f| f.0 > 0.05) && feet.iter().any(|f| f.1 > 0.05));
+    let travelled = feet.last().unwrap().2 - feet[0].2;
+    assert!(travelled > 2.0, "the body walks forward (+Z): {travelled:.2} m");
+
+    let in_place = read_fbx(&repo("assets/bodies/female_walk_inplace.fbx")).unwrap();
+    let feet = feet_over_time(&in_place, in_place.motion.as_ref().unwrap());
+    assert!((feet.last().unwrap().2 - feet[0].2).abs() < 0.1, "the in-place walk stays put");
+}
+
+#[test]
+fn a_walk_reused_on_another_body_moves_the_same_bones() {
+    let female = body("female_walk");
+    let male = body("male_walk");
+    let walk = female.motion.clone().unwrap();
+    let matched = walk.bone_match(&male.skeleton);
+    assert!(matched.is_complete(), "{:?}", matched.missing_in_skeleton);
+    // Every bone the walk turns turns on the male body too, and the male's feet stay grounded.
+    let moved = |body: &Body| -> Vec<String> {
+        let (a, b) = (
+            walk.pose(&body.skeleton, 0.0, body.skeleton_height()),
+            walk.pose(&body.skeleton, 0.4, body.skeleton_height()),
+        );
+        body.skeleton
+            .bones
+            .iter()
+            .zip(a.iter().zip(&b))
+            .filter(|(_, (x, y))| (x.rotation_deg - y.rotation_deg).norm() > 1.0)
+            .map(|(bone, _)| bone.name.clone())
+            .collect()
+    };
+    assert_eq!(moved(&male), moved(&female));
+    assert!(moved(&male).len() >= 10);
+    let feet = feet_over_time(&male, &walk);
+    let worst = feet.iter().map(|f| f.0.min(f.1).abs()).fold(0.0, f64::max);
+    assert!(worst < 0.04, "reused walk: stance foot up to {worst:.3} m off the ground");
+    assert!(feet.last().unwrap().2 - feet[0].2 > 2.0);
+
+    let mut renamed = male.skeleton.clone();
+    let thigh = renamed.find("thigh_l").unwrap();
+    renamed.bones[thigh].name = "LeftUpLeg".into();
+    let report = walk.bone_match(&renamed);
+    assert!(report.missing_in_skeleton.contains(&"thigh_l".to_owned()), "{report:?}");
+    assert!(!report.is_complete());
+}
+
+#[test]
+fn a_mesh_without_skin_is_a_static_body() {
+    let body = read_fbx(&repo("tests/fixtures/bodies/static_box.fbx")).unwrap();
+    assert!(body.motion.is_none());
+    assert_eq!(body.mesh.triangles.len(), 12);
+    let (low, high) = body.mesh.bounds().unwrap();
+    // A 0.5 m cube standing on the ground (Blender Z up, converted to Y up).
+    assert!((high - low - Vector3::repeat(0.5)).norm() < 1e-6, "{low} {high}");
+    assert!(low.y.abs() < 1e-6);
+}
+
+#[test]
+fn bad_fbx_files_get_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    };
+    let ascii = write("ascii.fbx", b"; FBX 7.4.0 project file\n; ----\nFBXHeaderExtension:  {\n}\n");
+    let e = read_fbx(&ascii).unwrap_err();
+    assert!(matches!(e, FbxError::Ascii { .. }) && e.to_string().contains("binary FBX 7.4"), "{e}");
+
+    let full = std::fs::read(repo("assets/bodies/female_walk.fbx")).unwrap();
+    let truncated = write("truncated.fbx", &full[..full.len() / 3]);
+    let e = read_fbx(&truncated).unwrap_err();
+    assert!(matches!(e, FbxError::Malformed { .. }) && e.to_string().contains("truncated.fbx"), "{e}");
+
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let noise: Vec<u8> = (0..4096)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state as u8
+        })
+        .collect();
+    let e = read_fbx(&write("noise.fbx", &noise)).unwrap_err();
+    assert!(matches!(e, FbxError::NotFbx { .. }), "{e}");
+
+    let e = read_fbx(&repo("tests/fixtures/bodies/skeleton_only.fbx")).unwrap_err();
+    assert!(e.to_string().contains("no mesh") && e.to_string().contains("skeleton_only.fbx"), "{e}");
+
+    let e = read_fbx(&dir.path().join("absent.fbx")).unwrap_err();
+    assert!(matches!(e, FbxError::Read { .. }) && e.to_string().contains("absent.fbx"), "{e}");
+}
