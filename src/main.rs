@@ -100,6 +100,24 @@ enum Command {
         #[arg(long)]
         motion: Option<PathBuf>,
     },
+    /// Bake a body's motion into a binary motion cache (the skinned mesh frame
+    /// by frame): simulating against it is then a copy per frame.
+    ImportMotion {
+        /// The body's FBX file.
+        body: PathBuf,
+        /// Drive the body with this FBX file's motion (bones matched by name).
+        #[arg(long)]
+        motion: Option<PathBuf>,
+        /// Frames per second of the cache.
+        #[arg(long, default_value_t = 30.0)]
+        fps: f64,
+        /// Mark the motion as a cycle (it repeats in scenes).
+        #[arg(long)]
+        cycle: bool,
+        /// The cache file to write (e.g. walk.motion).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Measure simulation speed (ms per frame, per stage) with strain, on the
     /// standard scenes.
     Bench {
@@ -181,6 +199,9 @@ fn main() -> ExitCode {
         }
         Command::Bench { sweep: None, suite, frames, out } => run_bench(suite, frames, out.as_deref()),
         Command::Body { body, motion } => run_body(&body, motion.as_deref()),
+        Command::ImportMotion { body, motion, fps, cycle, out } => {
+            run_import_motion(&body, motion.as_deref(), fps, cycle, &out)
+        }
         Command::Render { source, out, frames, light, size, turntable, scene } => {
             let request = RenderRequest { frames, light, size, turntable, scene };
             run_render(&source, &out, &request)
@@ -491,6 +512,59 @@ fn run_body(path: &Path, motion_path: Option<&Path>) -> Result<(), Failure> {
         "skinning: median {:.3} ms per frame over {frames} frames at 30 fps, {} threads",
         bake::summary::median(&times_ms),
         rayon::current_num_threads()
+    );
+    Ok(())
+}
+
+fn run_import_motion(
+    path: &Path,
+    motion_path: Option<&Path>,
+    fps: f64,
+    cycle: bool,
+    out: &Path,
+) -> Result<(), Failure> {
+    use drape::io::fbx::read_fbx;
+    use drape::io::motion_cache::{MotionCache, write_motion_cache};
+    use drape::sim::vertex_animation::VertexAnimation;
+    if !(fps.is_finite() && (1.0..=1000.0).contains(&fps)) {
+        return Err(Failure::Input(format!("--fps {fps}: expected 1 to 1000 frames per second")));
+    }
+    let body = read_fbx(path).map_err(input)?;
+    let motion = match motion_path {
+        Some(other) => read_fbx(other)
+            .map_err(input)?
+            .motion
+            .ok_or_else(|| Failure::Input(format!("{} has no animation", other.display())))?,
+        None => body.motion.clone().ok_or_else(|| Failure::Input(format!("{} has no animation", path.display())))?,
+    };
+    let matched = motion.bone_match(&body.skeleton);
+    if !matched.is_complete() {
+        eprintln!(
+            "warning: bones of the motion this body lacks (not moved): {}",
+            matched.missing_in_skeleton.join(", ")
+        );
+    }
+    let frames = (motion.duration_s() * fps).floor() as usize + 1;
+    let mut posed = Vec::new();
+    let started = std::time::Instant::now();
+    let frames: Vec<_> = (0..frames)
+        .map(|f| {
+            body.pose_into(&motion, f as f64 / fps, &mut posed);
+            posed.clone()
+        })
+        .collect();
+    let seconds = started.elapsed().as_secs_f64();
+    let count = frames.len();
+    let cache = MotionCache {
+        triangles: body.mesh.triangles.clone(),
+        animation: VertexAnimation { fps, start_s: 0.0, frames, cycle },
+    };
+    write_motion_cache(out, &cache).map_err(input)?;
+    println!(
+        "{count} frames of {} vertices at {fps} fps in {} ({:.2} ms per frame to skin)",
+        body.mesh.vertex_count(),
+        out.display(),
+        seconds * 1e3 / count.max(1) as f64
     );
     Ok(())
 }

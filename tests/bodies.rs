@@ -172,3 +172,48 @@ fn bad_fbx_files_get_clear_errors() {
     let e = read_fbx(&dir.path().join("absent.fbx")).unwrap_err();
     assert!(matches!(e, FbxError::Read { .. }) && e.to_string().contains("absent.fbx"), "{e}");
 }
+
+fn drape_cli(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_drape")).args(args).output().expect("the drape binary runs")
+}
+
+#[test]
+fn a_motion_cache_plays_the_body_it_was_made_from() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("walk.motion");
+    let fbx = repo("assets/bodies/female_walk.fbx");
+    let out = drape_cli(&["import-motion", fbx.to_str().unwrap(), "--out", cache.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let scene_text = |file: &str| {
+        format!(
+            "[time]\nduration_s = 1.0\n[body]\nfile = \"{file}\"\n[[garment]]\nname = \"cloth\"\npreset = \"cotton\"\n\
+             mesh = {{ grid = {{ size_m = 0.2, resolution = 4 }} }}\ntranslation_m = [0.0, 2.5, 0.0]\n"
+        )
+    };
+    let from_cache = drape::scene::Scene::parse(&scene_text("walk.motion"), "cached", dir.path(), "cached").unwrap();
+    let from_fbx = drape::scene::Scene::parse(&scene_text(fbx.to_str().unwrap()), "fbx", dir.path(), "fbx").unwrap();
+    let (a, b) = (&from_cache.mesh_colliders[0], &from_fbx.mesh_colliders[0]);
+    for t in [0.0, 0.5, 0.9] {
+        let worst =
+            a.world_vertices(t).iter().zip(b.world_vertices(t)).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
+        assert!(worst < 1e-5, "t = {t}: the cache is {worst} m from skinning (f32 storage)");
+    }
+    // The body moves: it is a deforming collider, not a static one.
+    assert!((a.world_vertices(0.0)[0] - a.world_vertices(0.9)[0]).norm() > 0.1);
+}
+
+#[test]
+fn the_skirt_follows_the_walking_body_without_passing_through_it() {
+    let scene = drape::scene::Scene::load(&repo("assets/scenes/skirt_walk.toml")).unwrap();
+    let mut baker = drape::bake::Baker::new(&scene).unwrap();
+    let start = baker.simulator().positions().iter().sum::<Vector3<f64>>() / 2232.0;
+    // Through the blend into the walk and the first steps (the whole scene is
+    // a benchmark; see BENCHMARKS.md).
+    while baker.frame() < 36 {
+        let record = baker.advance().unwrap();
+        let i = &record.intersections;
+        assert_eq!((i.cloth_pairs, i.collider_pairs, i.penetrating_vertices), (0, 0, 0), "frame {}", record.frame);
+    }
+    let end = baker.simulator().positions().iter().sum::<Vector3<f64>>() / 2232.0;
+    assert!(end.z - start.z > 0.4, "the skirt travels with the body: {:.2} m", end.z - start.z);
+}

@@ -2,5 +2,6 @@
 
 pub mod atomic;
 pub mod fbx;
+pub mod motion_cache;
 pub mod obj;
 pub mod pc2;

@@ -67,7 +67,14 @@ impl Checker {
         let mut surfaces = meshes.to_vec();
         surfaces.extend(colliders.iter().filter_map(|c| {
             let (vertices, triangles) = tessellate(&c.shape)?;
-            Some(MeshCollider { name: c.name.clone(), vertices, triangles, placement: c.placement, friction: None })
+            Some(MeshCollider {
+                name: c.name.clone(),
+                vertices,
+                triangles,
+                placement: c.placement,
+                friction: None,
+                animation: None,
+            })
         }));
         Checker { triangles, solids, surfaces }
     }
@@ -111,8 +118,7 @@ impl Checker {
 
     /// Cloth triangles intersecting a mesh collider's triangles.
     fn mesh_pairs(&self, positions: &[Vector3<f64>], mesh: &MeshCollider, t: f64) -> u32 {
-        let pose = mesh.placement.world_from_local(t);
-        let world: Vec<Vector3<f64>> = mesh.vertices.iter().map(|p| (pose * Point3::from(*p)).coords).collect();
+        let world = mesh.world_vertices(t);
         let mut all = positions.to_vec();
         all.extend_from_slice(&world);
         let offset = positions.len() as u32;

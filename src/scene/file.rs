@@ -59,9 +59,53 @@ pub struct SceneFile {
     /// The obstacles.
     #[serde(default, rename = "collider")]
     pub colliders: Vec<ColliderSpec>,
+    /// An animated body the garments dress.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<BodySpec>,
     /// How renders and the editor's viewport look at the scene.
     #[serde(default, skip_serializing_if = "CameraSpec::is_automatic")]
     pub camera: CameraSpec,
+}
+
+/// An animated body: a deforming collider that garments can attach to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Name, for reports and `attach = "..."` pins.
+    #[serde(default = "default_body_name")]
+    pub name: String,
+    /// The body: a binary FBX with its skin and animation, or a `.motion`
+    /// cache made by `drape import-motion`; relative to the scene file.
+    pub file: PathBuf,
+    /// Drive the FBX body with this FBX file's motion instead of its own
+    /// (motion reuse: bones are matched by name).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<PathBuf>,
+    /// Seconds into the motion when it starts playing.
+    #[serde(default)]
+    pub start_s: f64,
+    /// The body starts in its bind pose (the pose garments are fitted to) and
+    /// moves into the motion's first pose over this long before the motion
+    /// plays, s (FBX bodies).
+    #[serde(default)]
+    pub blend_in_s: f64,
+    /// Repeat the motion after its end (a cycle such as an in-place walk);
+    /// otherwise the body holds its last pose.
+    #[serde(default)]
+    pub cycle: bool,
+    /// Where the body stands, m.
+    #[serde(default)]
+    pub position_m: [f64; 3],
+    /// Its rotation about X, Y, Z (fixed axes), degrees.
+    #[serde(default)]
+    pub rotation_deg: [f64; 3],
+    /// Friction coefficient overriding the fabric's, unitless.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
+}
+
+fn default_body_name() -> String {
+    "body".into()
 }
 
 /// The camera orbit of renders and of the editor's first view. Every key is

@@ -1,6 +1,7 @@
 //! Scenes: read a scene file, resolve its presets, meshes, pins and colliders,
 //! check every value, and build the simulator.
 
+pub mod body;
 pub mod file;
 pub mod preset;
 pub mod summary;
@@ -9,7 +10,8 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Similarity3, Translation3, UnitQuaternion, Vector3};
 
-use self::file::{CameraSpec, ColliderSpec, GarmentSpec, MeshSpec, PinSpec, SceneFile, ShapeSpec};
+use self::body::{BodyError, SceneBody, load_body};
+use self::file::{BodySpec, CameraSpec, ColliderSpec, GarmentSpec, MeshSpec, PinSpec, SceneFile, ShapeSpec};
 use self::preset::{Appearance, Preset, PresetError};
 use crate::io::obj::{ObjError, read_obj};
 use crate::mesh::validate::MeshReport;
@@ -23,7 +25,7 @@ use crate::sim::fabric::Fabric;
 use crate::sim::inextensibility::StrainLimiting;
 use crate::sim::motion::{Placement, RigidMotion};
 use crate::sim::pcg::PcgSettings;
-use crate::sim::step::Settings;
+use crate::sim::step::{Settings, triangle_frame};
 use crate::sim::{Pin, PinTarget, SimError, Simulator};
 
 /// Largest grid or tube resolution a scene may ask for (vertices per side).
@@ -53,8 +55,10 @@ pub struct Scene {
     pub garments: Vec<Garment>,
     /// The analytic obstacles.
     pub colliders: Vec<Collider>,
-    /// The triangle-mesh obstacles.
+    /// The triangle-mesh obstacles (the body's among them).
     pub mesh_colliders: Vec<MeshCollider>,
+    /// The animated body, if the scene has one.
+    pub body: Option<SceneBody>,
     /// The collision pipeline's constants.
     pub collision: CollisionSettings,
 }
@@ -127,6 +131,16 @@ pub enum SceneError {
         garment: String,
         /// The OBJ problem.
         source: ObjError,
+    },
+    /// The body file is unusable.
+    #[error("scene {origin}: body '{body}': {source}")]
+    Body {
+        /// File path.
+        origin: String,
+        /// Body name.
+        body: String,
+        /// The body problem (it names its file).
+        source: BodyError,
     },
     /// A value is out of range or inconsistent.
     #[error("scene {origin}: {what}: {problem}")]
@@ -249,6 +263,10 @@ impl Resolver<'_> {
                 SceneCollider::Mesh(m) => mesh_colliders.push(m),
             }
         }
+        let body = match &file.body {
+            Some(spec) => Some(self.body(spec, &file, &mut mesh_colliders)?),
+            None => None,
+        };
         let garments =
             file.garments.iter().map(|g| self.garment(g, &file, &mesh_colliders)).collect::<Result<Vec<_>, _>>()?;
         for (i, g) in garments.iter().enumerate() {
@@ -278,9 +296,26 @@ impl Resolver<'_> {
             garments,
             colliders,
             mesh_colliders,
+            body,
             collision,
             file,
         })
+    }
+
+    fn body(&self, spec: &BodySpec, file: &SceneFile, meshes: &mut Vec<MeshCollider>) -> Result<SceneBody, SceneError> {
+        let what = format!("body '{}'", spec.name);
+        for v in spec.position_m.iter().chain(&spec.rotation_deg).chain([spec.start_s].iter()) {
+            self.check(&format!("{what}: pose"), *v, |_| true, "finite numbers")?;
+        }
+        self.check(&format!("{what}: blend_in_s"), spec.blend_in_s, |b| (0.0..=60.0).contains(&b), "0 to 60 s")?;
+        if let Some(mu) = spec.friction {
+            self.check(&format!("{what}: friction"), mu, |m| (0.0..=10.0).contains(&m), "0 ≤ friction ≤ 10")?;
+        }
+        let (collider, surface, unmatched_bones) = load_body(spec, self.base_dir, file.time.fps, file.time.duration_s)
+            .map_err(|source| SceneError::Body { origin: self.origin.to_owned(), body: spec.name.clone(), source })?;
+        meshes.push(collider);
+        let origin = self.base_dir.join(&spec.file).display().to_string();
+        Ok(SceneBody { collider: meshes.len() - 1, surface, origin, unmatched_bones })
     }
 
     fn camera(&self, camera: &CameraSpec) -> Result<(), SceneError> {
@@ -450,10 +485,19 @@ impl Resolver<'_> {
                 let w = closest_on_triangle(&p, a, b, c);
                 ((a * w[0] + b * w[1] + c * w[2] - p).norm_squared(), t, w)
             };
-            let (_, triangle, weights) = corners.iter().enumerate().map(closest).min_by(|x, y| x.0.total_cmp(&y.0))?;
+            let (squared, triangle, weights) =
+                corners.iter().enumerate().map(closest).min_by(|x, y| x.0.total_cmp(&y.0))?;
             let [a, b, c] = &corners[triangle];
-            let side = (b - a).cross(&(c - a)).dot(&(p - a));
-            let offset_m = if side < 0.0 { -thickness } else { thickness };
+            // The vertex keeps where it was fitted relative to the triangle (a
+            // waistband with ease stays eased), at least the fabric's thickness
+            // off the surface on its side.
+            let on_surface = a * weights[0] + b * weights[1] + c * weights[2];
+            let frame = triangle_frame(a, b, c);
+            let mut offset_m = frame.transpose() * (p - on_surface);
+            let side = if (b - a).cross(&(c - a)).dot(&(p - a)) < 0.0 { -1.0 } else { 1.0 };
+            if offset_m.z * side < thickness && squared.sqrt() < thickness {
+                offset_m = Vector3::new(0.0, 0.0, side * thickness);
+            }
             let target = PinTarget::OnMesh { mesh: index as u32, triangle: triangle as u32, weights, offset_m };
             Some(Pin { vertex, target })
         };
@@ -531,6 +575,7 @@ impl Resolver<'_> {
                 triangles: obj.mesh.triangles,
                 placement,
                 friction,
+                animation: None,
             }));
         }
         Ok(SceneCollider::Analytic(Collider { name, shape: self.shape(&spec.shape, &what)?, placement, friction }))

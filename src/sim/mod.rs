@@ -23,5 +23,6 @@ pub mod pcg;
 pub mod sparse;
 pub mod step;
 pub mod tuning;
+pub mod vertex_animation;
 
 pub use step::{Pin, PinTarget, SimError, Simulator, StepError, StepReport};

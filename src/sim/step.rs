@@ -25,7 +25,7 @@
 
 use std::time::{Duration, Instant};
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 use rayon::prelude::*;
 
 use super::cholesky::CholeskyError;
@@ -33,7 +33,7 @@ use super::cloth::{Cloth, SpringKind};
 use super::colliders::Collider;
 use super::collision::obstacles::{MeshCollider, Obstacles};
 use super::collision::{
-    ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, ParticleCollision,
+    ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, Kinematic, ParticleCollision,
 };
 use super::contact::{ParticleSurface, StepWindow, SurfaceContact, resolve_particle};
 use super::fabric::{Fabric, FabricError};
@@ -77,9 +77,9 @@ pub enum PinTarget {
     /// Its starting position carried by a rigid motion.
     Moving(RigidMotion),
     /// Glued to a point of mesh collider `mesh`: the barycentric `weights` of
-    /// its triangle `triangle`, raised by `offset_m` along the triangle's unit
-    /// normal, following the triangle's vertices wherever the mesh takes them
-    /// (a waistband on a body, kept at the cloth's thickness from the skin).
+    /// its triangle `triangle`, plus `offset_m` in the triangle's own frame,
+    /// following the triangle's vertices wherever the mesh takes them (a
+    /// waistband on a body, kept where it was fitted off the skin).
     OnMesh {
         /// Index among the simulator's mesh colliders.
         mesh: u32,
@@ -87,9 +87,9 @@ pub enum PinTarget {
         triangle: u32,
         /// Barycentric weights of its three corners (non-negative, sum 1).
         weights: [f64; 3],
-        /// Signed distance from the surface along the triangle's normal
-        /// (counter-clockwise winding), m.
-        offset_m: f64,
+        /// Offset from that point in the triangle's frame (along its first
+        /// edge, across it, along its counter-clockwise normal), m.
+        offset_m: Vector3<f64>,
     },
 }
 
@@ -261,6 +261,15 @@ pub struct Settings {
     pub strain_limiting: StrainLimiting,
 }
 
+/// A triangle's orthonormal frame as matrix columns: along its first edge,
+/// across it in its plane, and its counter-clockwise unit normal (zero columns
+/// for a degenerate triangle).
+pub fn triangle_frame(a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>) -> Matrix3<f64> {
+    let along = (b - a).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
+    let normal = (b - a).cross(&(c - a)).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
+    Matrix3::from_columns(&[along, normal.cross(&along), normal])
+}
+
 /// The triangle-collision pipeline of `cloth`, if the scene needs one.
 fn collision_pipeline(
     cloth: &Cloth,
@@ -277,14 +286,18 @@ fn collision_pipeline(
         .collect();
     for pin in pins {
         // A rigid mesh carries a point glued to it as its own motion carries its
-        // vertices: the same rigid motion applied to the point's start.
-        let motion = match &pin.target {
-            PinTarget::Still => None,
-            PinTarget::Moving(motion) => Some(*motion),
-            PinTarget::OnMesh { mesh, .. } => meshes[*mesh as usize].placement.motion,
+        // vertices: the same rigid motion applied to the point's start. A point
+        // glued to a deforming mesh moves its own way.
+        let rigid = |motion| Kinematic::Rigid(Placement { rest_pose: nalgebra::Isometry3::identity(), motion });
+        let kinematic = match &pin.target {
+            PinTarget::Still => rigid(None),
+            PinTarget::Moving(motion) => rigid(Some(*motion)),
+            PinTarget::OnMesh { mesh, .. } => match &meshes[*mesh as usize] {
+                m if m.animation.is_some() => Kinematic::Deforming,
+                m => rigid(m.placement.motion),
+            },
         };
-        let placement = Placement { rest_pose: nalgebra::Isometry3::identity(), motion };
-        particles[pin.vertex as usize].pinned = Some(placement);
+        particles[pin.vertex as usize].pinned = Some(kinematic);
     }
     let self_collision =
         (0..cloth.garments.len()).map(|g| settings.self_collision.get(g).copied().unwrap_or(true)).collect();
@@ -558,9 +571,8 @@ impl Simulator {
                 let mesh = &self.attachment_meshes[*mesh as usize];
                 let world_from_local = mesh.placement.world_from_local(t);
                 let [a, b, c] = mesh.triangles[*triangle as usize]
-                    .map(|v| (world_from_local * Point3::from(mesh.vertices[v as usize])).coords);
-                let normal = (b - a).cross(&(c - a)).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
-                a * weights[0] + b * weights[1] + c * weights[2] + normal * *offset_m
+                    .map(|v| (world_from_local * Point3::from(mesh.local_vertex(v as usize, t))).coords);
+                a * weights[0] + b * weights[1] + c * weights[2] + triangle_frame(&a, &b, &c) * offset_m
             }
         }
     }

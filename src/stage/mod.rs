@@ -20,22 +20,35 @@ use nalgebra::{Isometry3, Vector3};
 
 use self::tessellate::shape_mesh;
 use crate::mesh::normals::{VertexTriangles, vertex_normals};
+use crate::mesh::{Part, Surface, TriMesh};
 use crate::render::camera::{DEFAULT_FOV_Y_DEG, DEFAULT_PITCH_DEG, DEFAULT_YAW_DEG};
 use crate::render::{Bounds, DrawMesh, LightRig, Material, OrbitCamera, RenderError, Renderer, Vertex, View};
 use crate::scene::file::CameraSpec;
 use crate::scene::{Garment, Scene};
 use crate::sim::colliders::Shape;
+use crate::sim::collision::obstacles::MeshCollider;
 use crate::sim::motion::Placement;
 
 /// Half size of the drawn ground square, m.
 pub const GROUND_HALF_SIZE_M: f32 = 20.0;
 /// Spacing of the ground's grid lines, m.
 const GROUND_GRID_M: f32 = 0.5;
+/// Colour of a body without materials, linear RGB.
+const BODY_COLOR: [f32; 3] = [0.6, 0.46, 0.38];
 
-/// One garment's drawing: pieces (one per material part) that share its vertices.
-struct GarmentLook {
-    /// Index of its first particle in the scene's concatenated positions.
-    first_particle: usize,
+/// Where a deforming mesh's vertices come from each frame.
+enum VertexSource {
+    /// A garment: its particles start here in the simulated positions.
+    Particles(usize),
+    /// An animated collider (a body): its vertices at the frame's time.
+    Collider(Box<MeshCollider>),
+}
+
+/// A deforming mesh's drawing (a garment or a body): pieces (one per material
+/// part) that share its vertices, with normals recomputed every frame.
+struct DeformingLook {
+    /// Where its vertices come from.
+    source: VertexSource,
     /// Its triangles (garment-local vertex indices).
     triangles: Vec<[u32; 3]>,
     /// Triangles around each vertex, for the per-frame normals.
@@ -60,7 +73,7 @@ struct PlacedMesh {
 
 /// Everything drawn for a scene, ready for a [`Renderer`].
 pub struct Stage {
-    garments: Vec<GarmentLook>,
+    garments: Vec<DeformingLook>,
     placed: Vec<PlacedMesh>,
     meshes: Vec<DrawMesh>,
     rest_bounds: Bounds,
@@ -107,7 +120,12 @@ impl Stage {
             };
             stage.add_placed(mesh, collider.placement);
         }
-        for collider in &scene.mesh_colliders {
+        for (index, collider) in scene.mesh_colliders.iter().enumerate() {
+            if collider.animation.is_some() {
+                let surface = scene.body.as_ref().filter(|b| b.collider == index).map(|b| b.surface.clone());
+                stage.add_animated(collider, surface.unwrap_or_default());
+                continue;
+            }
             let normals = vertex_normals(&collider.vertices, &collider.triangles);
             let vertices = collider
                 .vertices
@@ -127,7 +145,15 @@ impl Stage {
         }
         let rest: Vec<Vector3<f64>> = scene.garments.iter().flat_map(|g| g.mesh.positions.iter().copied()).collect();
         stage.pose_meshes(&rest, 0.0);
-        stage.rest_bounds = stage.bounds();
+        // Frame everything a body will sweep, not only where it starts.
+        let swept = scene.mesh_colliders.iter().filter_map(|c| {
+            let animation = c.animation.as_ref()?;
+            let pose = c.placement.world_from_local(0.0);
+            let points =
+                animation.frames.iter().flatten().map(|p| to_vec3(&(pose * nalgebra::Point3::from(*p)).coords));
+            Bounds::around(points)
+        });
+        stage.rest_bounds = swept.fold(stage.bounds(), Bounds::union);
         Ok(stage)
     }
 
@@ -136,15 +162,38 @@ impl Stage {
         self.meshes.push(mesh);
     }
 
+    /// An animated collider (a body), drawn with its own materials.
+    fn add_animated(&mut self, collider: &MeshCollider, surface: Surface) {
+        let mesh = TriMesh {
+            positions: collider.vertices.clone(),
+            triangles: collider.triangles.clone(),
+            quads: Vec::new(),
+            surface,
+        };
+        let whole = [whole_part(&collider.name, &mesh)];
+        let parts = if mesh.surface.parts.is_empty() { &whole[..] } else { &mesh.surface.parts[..] };
+        let mut pieces = Vec::new();
+        for part in parts {
+            let color = part.material.and_then(|m| mesh.surface.materials.get(m)).map_or(BODY_COLOR, |m| m.diffuse);
+            let material = Material { sheen_color: [0.06; 3], sheen_roughness: 0.6, ..Material::matte(color, 0.55) };
+            let name = format!("{}.{}", collider.name, part.name);
+            let (mut draw, vertex) = piece_mesh(&name, &mesh, part, material);
+            draw.world_from_model = to_mat4(&collider.placement.world_from_local(0.0));
+            pieces.push(Piece { mesh: self.meshes.len(), garment_vertex: vertex });
+            self.meshes.push(draw);
+        }
+        self.garments.push(DeformingLook {
+            source: VertexSource::Collider(Box::new(collider.clone())),
+            triangles: mesh.triangles.clone(),
+            around: VertexTriangles::new(&mesh.triangles, mesh.vertex_count()),
+            pieces,
+        });
+    }
+
     fn add_garment(&mut self, garment: &Garment, first_particle: usize) -> Result<(), RenderError> {
         let mesh = &garment.mesh;
         let surface = &mesh.surface;
-        let whole = [crate::mesh::Part {
-            name: garment.name.clone(),
-            material: None,
-            first_triangle: 0,
-            triangle_count: mesh.triangles.len(),
-        }];
+        let whole = [whole_part(&garment.name, mesh)];
         let parts = if surface.parts.is_empty() { &whole[..] } else { &surface.parts[..] };
         let appearance = garment.appearance();
         let mut textures: HashMap<&Path, Arc<image::RgbaImage>> = HashMap::new();
@@ -173,12 +222,13 @@ impl Stage {
                 grid_spacing_m: 0.0,
                 texture,
             };
-            let (draw, garment_vertex) = piece_mesh(garment, part, material);
+            let name = format!("{}.{}", garment.name, part.name);
+            let (draw, garment_vertex) = piece_mesh(&name, mesh, part, material);
             pieces.push(Piece { mesh: self.meshes.len(), garment_vertex });
             self.meshes.push(draw);
         }
-        self.garments.push(GarmentLook {
-            first_particle,
+        self.garments.push(DeformingLook {
+            source: VertexSource::Particles(first_particle),
             triangles: mesh.triangles.clone(),
             around: VertexTriangles::new(&mesh.triangles, mesh.vertex_count()),
             pieces,
@@ -207,9 +257,19 @@ impl Stage {
     }
 
     fn pose_meshes(&mut self, positions: &[Vector3<f64>], t_s: f64) {
+        let mut animated = Vec::new();
         for look in &self.garments {
-            let end = look.first_particle + look.around.vertex_count();
-            let Some(own) = positions.get(look.first_particle..end) else { continue };
+            let own = match &look.source {
+                VertexSource::Particles(first) => {
+                    let Some(own) = positions.get(*first..first + look.around.vertex_count()) else { continue };
+                    own
+                }
+                VertexSource::Collider(collider) => {
+                    animated.clear();
+                    animated.extend((0..collider.vertices.len()).map(|v| collider.local_vertex(v, t_s)));
+                    &animated[..]
+                }
+            };
             let normals = look.around.normals(own, &look.triangles);
             for piece in &look.pieces {
                 let vertices = &mut self.meshes[piece.mesh].vertices;
@@ -263,10 +323,14 @@ impl Stage {
     }
 }
 
-/// The drawn mesh of one part of a garment: a vertex per distinct (vertex, UV)
+/// A part covering every triangle of `mesh`.
+fn whole_part(name: &str, mesh: &TriMesh) -> Part {
+    Part { name: name.to_owned(), material: None, first_triangle: 0, triangle_count: mesh.triangles.len() }
+}
+
+/// The drawn mesh of one part of a mesh: a vertex per distinct (vertex, UV)
 /// corner, so texture seams stay sharp while positions stay shared.
-fn piece_mesh(garment: &Garment, part: &crate::mesh::Part, material: Material) -> (DrawMesh, Vec<u32>) {
-    let mesh = &garment.mesh;
+fn piece_mesh(name: &str, mesh: &TriMesh, part: &Part, material: Material) -> (DrawMesh, Vec<u32>) {
     let surface = &mesh.surface;
     let mut index_of: HashMap<(u32, u32), u32> = HashMap::new();
     let (mut vertices, mut garment_vertex, mut indices) = (Vec::new(), Vec::new(), Vec::new());
@@ -285,8 +349,14 @@ fn piece_mesh(garment: &Garment, part: &crate::mesh::Part, material: Material) -
             indices.push(id);
         }
     }
-    let name = format!("{}.{}", garment.name, part.name);
-    let draw = DrawMesh { name, vertices, indices, material, world_from_model: Mat4::IDENTITY, casts_shadow: true };
+    let draw = DrawMesh {
+        name: name.to_owned(),
+        vertices,
+        indices,
+        material,
+        world_from_model: Mat4::IDENTITY,
+        casts_shadow: true,
+    };
     (draw, garment_vertex)
 }
 

@@ -149,7 +149,17 @@ pub struct ParticleCollision {
     /// Friction coefficient, unitless.
     pub friction: f64,
     /// Prescribed motion of a pinned particle (`None`: free).
-    pub pinned: Option<Placement>,
+    pub pinned: Option<Kinematic>,
+}
+
+/// How a kinematic point (a pinned particle or an obstacle vertex) moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kinematic {
+    /// Rigidly, with this placement.
+    Rigid(Placement),
+    /// Each point its own way (a deforming body, or a point glued to one):
+    /// known by its positions at the step's start and end.
+    Deforming,
 }
 
 /// The collision pipeline of one cloth: topology, hierarchy, obstacles and
@@ -416,6 +426,7 @@ mod tests {
             triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]],
             placement: at(-0.3, -0.001, -0.3),
             friction: None,
+            animation: None,
         };
         let particles = vec![ParticleCollision { thickness: THICKNESS, friction: 0.3, pinned: None }; start.len()];
         let settings = CollisionSettings { representative_triangles, ..Default::default() };

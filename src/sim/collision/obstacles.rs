@@ -16,39 +16,65 @@
 //! collider's frame and moves with the collider's pose; obstacles have
 //! infinite mass.
 
+use std::sync::Arc;
+
 use nalgebra::{Point3, Vector3};
 
 use super::features::Ownership;
 use crate::sim::colliders::{Collider, Shape};
 use crate::sim::contact::StepWindow;
 use crate::sim::motion::Placement;
+use crate::sim::vertex_animation::VertexAnimation;
 
 /// Segments of a rim circle (a needle's or a cylinder's edge), and generator
 /// lines along a cylinder's or cone's side.
 const RIM_SEGMENTS: usize = 24;
 
-/// A rigid triangle mesh that moves like an analytic collider.
+/// A triangle mesh obstacle: rigid, moving like an analytic collider, or
+/// deforming (an animated body) with its vertices sampled per frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshCollider {
     /// Name from the scene file, for reports.
     pub name: String,
-    /// Vertex positions in the collider's frame, m.
+    /// Vertex positions in the collider's frame at time 0, m.
     pub vertices: Vec<Vector3<f64>>,
     /// Triangles.
     pub triangles: Vec<[u32; 3]>,
-    /// Where it is and how it moves.
+    /// Where it is and how it moves as a whole.
     pub placement: Placement,
     /// Friction coefficient overriding the fabric's, unitless.
     pub friction: Option<f64>,
+    /// For a deforming mesh, its vertices (collider frame) over time.
+    pub animation: Option<Arc<VertexAnimation>>,
+}
+
+impl MeshCollider {
+    /// Position of `vertex` in the collider's frame at time `t` s, m.
+    pub fn local_vertex(&self, vertex: usize, t: f64) -> Vector3<f64> {
+        match &self.animation {
+            Some(a) => a.position(vertex, t),
+            None => self.vertices.get(vertex).copied().unwrap_or_else(Vector3::zeros),
+        }
+    }
+
+    /// Every vertex in world space at time `t` s, m.
+    pub fn world_vertices(&self, t: f64) -> Vec<Vector3<f64>> {
+        let pose = self.placement.world_from_local(t);
+        (0..self.vertices.len()).map(|v| (pose * Point3::from(self.local_vertex(v, t))).coords).collect()
+    }
 }
 
 /// An obstacle body: how it moves and how rough it is.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Body {
-    /// Where it is and how it moves.
+    /// Where it is and how it moves as a whole.
     pub placement: Placement,
     /// Friction coefficient overriding the fabric's, unitless.
     pub friction: Option<f64>,
+    /// For a deforming mesh, its vertices over time (indexed from `first_vertex`).
+    pub animation: Option<Arc<VertexAnimation>>,
+    /// Index of the body's first vertex among all obstacle vertices.
+    pub first_vertex: u32,
 }
 
 /// All obstacle features in one index space.
@@ -80,8 +106,14 @@ impl Obstacles {
                 continue;
             }
             let index = o.bodies.len() as u32;
-            o.bodies.push(Body { placement: collider.placement, friction: collider.friction });
             let base = o.local.len() as u32;
+            let body = Body {
+                placement: collider.placement,
+                friction: collider.friction,
+                animation: None,
+                first_vertex: base,
+            };
+            o.bodies.push(body);
             o.local.extend(points);
             o.vertex_collider.resize(o.local.len(), index);
             o.feature_vertices.extend(base..o.local.len() as u32);
@@ -89,8 +121,9 @@ impl Obstacles {
         }
         for mesh in meshes {
             let index = o.bodies.len() as u32;
-            o.bodies.push(Body { placement: mesh.placement, friction: mesh.friction });
             let base = o.local.len() as u32;
+            let animation = mesh.animation.clone();
+            o.bodies.push(Body { placement: mesh.placement, friction: mesh.friction, animation, first_vertex: base });
             o.local.extend_from_slice(&mesh.vertices);
             o.vertex_collider.resize(o.local.len(), index);
             o.triangles.extend(mesh.triangles.iter().map(|t| t.map(|v| v + base)));
@@ -113,11 +146,19 @@ impl Obstacles {
     pub fn positions(&self, window: StepWindow, start: &mut Vec<Vector3<f64>>, end: &mut Vec<Vector3<f64>>) {
         start.clear();
         end.clear();
-        for (p, &c) in self.local.iter().zip(&self.vertex_collider) {
-            let placement = &self.bodies[c as usize].placement;
+        for (i, (p, &c)) in self.local.iter().zip(&self.vertex_collider).enumerate() {
+            let body = &self.bodies[c as usize];
+            let placement = &body.placement;
             let (from, to) = (placement.world_from_local(window.t0), placement.world_from_local(window.t1));
-            start.push((from * Point3::from(*p)).coords);
-            end.push((to * Point3::from(*p)).coords);
+            let (a, b) = match &body.animation {
+                Some(animation) => {
+                    let v = i - body.first_vertex as usize;
+                    (animation.position(v, window.t0), animation.position(v, window.t1))
+                }
+                None => (*p, *p),
+            };
+            start.push((from * Point3::from(a)).coords);
+            end.push((to * Point3::from(b)).coords);
         }
     }
 }
@@ -238,5 +279,25 @@ mod tests {
         o.positions(StepWindow { t0: 0.0, t1: 0.1 }, &mut start, &mut end);
         let apex = start[RIM_SEGMENTS];
         assert!((apex - Vector3::new(1.0, 0.5, 0.0)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn a_deforming_mesh_moves_each_vertex_along_its_own_samples() {
+        let frames = vec![vec![Vector3::zeros(), Vector3::x()], vec![Vector3::y(), Vector3::x() * 2.0]];
+        let animation = VertexAnimation { fps: 10.0, start_s: 0.0, frames, cycle: false };
+        let mesh = MeshCollider {
+            name: "skin".into(),
+            vertices: vec![Vector3::zeros(), Vector3::x()],
+            triangles: vec![],
+            placement: Placement { rest_pose: Isometry3::translation(0.0, 0.0, 1.0), motion: None },
+            friction: None,
+            animation: Some(Arc::new(animation)),
+        };
+        let o = Obstacles::new(&[], &[mesh]);
+        let (mut start, mut end) = (Vec::new(), Vec::new());
+        o.positions(StepWindow { t0: 0.0, t1: 0.05 }, &mut start, &mut end);
+        assert_eq!(start, [Vector3::new(0.0, 0.0, 1.0), Vector3::new(1.0, 0.0, 1.0)]);
+        assert!((end[0] - Vector3::new(0.0, 0.5, 1.0)).norm() < 1e-12, "half way to the next frame: {}", end[0]);
+        assert!((end[1] - Vector3::new(1.5, 0.0, 1.0)).norm() < 1e-12);
     }
 }

@@ -5,12 +5,11 @@
 
 use std::time::Instant;
 
-use nalgebra::Vector3;
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 use super::detect::{Detection, Scope};
 use super::response::{Points, rigidify};
-use super::{CollisionPipeline, CollisionReport};
-use crate::sim::motion::Placement;
+use super::{CollisionPipeline, CollisionReport, Kinematic};
 
 impl CollisionPipeline {
     /// Rigid impact zones until nothing crosses (or the rounds run out).
@@ -45,11 +44,25 @@ impl CollisionPipeline {
             while start < self.ws.zone_members.len() {
                 let root = self.ws.zone_members[start].0;
                 let end = start + self.ws.zone_members[start..].partition_point(|&(r, _)| r == root);
-                let kinematic = self.ws.zone_members[start..end].iter().find_map(|&(_, i)| self.kinematic(i));
-                let carry = kinematic.map(|placement| {
-                    let step = placement.world_from_local(window.t1) * placement.world_from_local(window.t0).inverse();
-                    move |p: &Vector3<f64>| (step * nalgebra::Point3::from(*p)).coords
-                });
+                let kinematic: Vec<(u32, Kinematic)> = self.ws.zone_members[start..end]
+                    .iter()
+                    .filter_map(|&(_, i)| Some((i, self.kinematic(i)?)))
+                    .collect();
+                // A zone holding a deforming point moves with the rigid motion
+                // that best fits its kinematic points; otherwise with the rigid
+                // body it holds.
+                let step = match kinematic.iter().any(|(_, k)| *k == Kinematic::Deforming) {
+                    true => Some(rigid_fit(
+                        kinematic.iter().map(|&(i, _)| (self.ws.start[i as usize], self.ws.end[i as usize])),
+                    )),
+                    false => kinematic.iter().find_map(|(_, k)| match k {
+                        Kinematic::Rigid(p) => {
+                            Some(p.world_from_local(window.t1) * p.world_from_local(window.t0).inverse())
+                        }
+                        Kinematic::Deforming => None,
+                    }),
+                };
+                let carry = step.map(|step| move |p: &Vector3<f64>| (step * Point3::from(*p)).coords);
                 let ws = &mut self.ws;
                 let mut points = Points {
                     start: &ws.start,
@@ -91,14 +104,61 @@ impl CollisionPipeline {
 
     /// The prescribed motion of point `i`, if it has one (pinned particle or
     /// obstacle vertex).
-    fn kinematic(&self, i: u32) -> Option<Placement> {
+    fn kinematic(&self, i: u32) -> Option<Kinematic> {
         match self.particles.get(i as usize) {
             Some(p) => p.pinned,
             None => {
                 let o = &self.obstacles;
-                let body = o.vertex_collider[i as usize - self.particles.len()];
-                Some(o.bodies[body as usize].placement)
+                let body = &o.bodies[o.vertex_collider[i as usize - self.particles.len()] as usize];
+                Some(match body.animation {
+                    Some(_) => Kinematic::Deforming,
+                    None => Kinematic::Rigid(body.placement),
+                })
             }
         }
+    }
+}
+
+/// The rigid motion that best maps each pair's first point onto its second
+/// (least squares, Kabsch): the translation of the centroids and the rotation
+/// from the SVD of the cross-covariance. With fewer than three points, or all
+/// on a line, only the translation.
+fn rigid_fit(pairs: impl Iterator<Item = (Vector3<f64>, Vector3<f64>)> + Clone) -> Isometry3<f64> {
+    let n = pairs.clone().count() as f64;
+    if n == 0.0 {
+        return Isometry3::identity();
+    }
+    let from = pairs.clone().map(|p| p.0).sum::<Vector3<f64>>() / n;
+    let to = pairs.clone().map(|p| p.1).sum::<Vector3<f64>>() / n;
+    let covariance: Matrix3<f64> = pairs.map(|(a, b)| (a - from) * (b - to).transpose()).sum();
+    let svd = covariance.svd(true, true);
+    let rotation = match (svd.u, svd.v_t) {
+        (Some(u), Some(v_t)) if n >= 3.0 && svd.singular_values[1] > 1e-12 * svd.singular_values[0].max(1e-300) => {
+            let v = v_t.transpose();
+            let d = (v * u.transpose()).determinant().signum();
+            Rotation3::from_matrix_unchecked(v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose())
+        }
+        _ => Rotation3::identity(),
+    };
+    let rotation = UnitQuaternion::from_rotation_matrix(&rotation);
+    Isometry3::from_parts(Translation3::from(to - rotation * from), rotation)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rigid_fit_recovers_a_rigid_motion_and_falls_back_to_translation() {
+        let motion = Isometry3::new(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.2, -0.4, 0.1));
+        let points = [Vector3::zeros(), Vector3::x(), Vector3::y(), Vector3::new(0.3, 0.2, 1.0)];
+        let pairs: Vec<_> = points.iter().map(|p| (*p, (motion * Point3::from(*p)).coords)).collect();
+        let fit = rigid_fit(pairs.iter().copied());
+        for p in points {
+            assert!((fit * Point3::from(p) - motion * Point3::from(p)).norm() < 1e-9);
+        }
+        let single = rigid_fit([(Vector3::x(), Vector3::new(1.0, 2.0, 0.0))].into_iter());
+        assert!((single.translation.vector - Vector3::new(0.0, 2.0, 0.0)).norm() < 1e-12);
+        assert_eq!(single.rotation, UnitQuaternion::identity());
     }
 }

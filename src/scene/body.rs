@@ -1,0 +1,145 @@
+//! A scene's `[body]`: an FBX body (its own motion or another file's) or a
+//! motion cache, sampled at the scene's frame rate into a deforming collider.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use nalgebra::{Isometry3, Translation3, Vector3};
+
+use super::file::BodySpec;
+use crate::body::Body;
+use crate::io::fbx::{FbxError, read_fbx};
+use crate::io::motion_cache::{MotionCacheError, read_motion_cache};
+use crate::mesh::Surface;
+use crate::sim::collision::obstacles::MeshCollider;
+use crate::sim::motion::Placement;
+use crate::sim::vertex_animation::VertexAnimation;
+
+/// The animated body of a scene.
+#[derive(Clone, Debug)]
+pub struct SceneBody {
+    /// Index of its collider in the scene's mesh colliders.
+    pub collider: usize,
+    /// Its materials (skin, underwear...) by triangle runs, for drawing.
+    pub surface: Surface,
+    /// Where it came from, for reports.
+    pub origin: String,
+    /// Bones of the motion the body lacks (motion reuse), for reports.
+    pub unmatched_bones: Vec<String>,
+}
+
+/// Why a body could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum BodyError {
+    /// The FBX body or motion file.
+    #[error(transparent)]
+    Fbx(#[from] FbxError),
+    /// The motion cache.
+    #[error(transparent)]
+    Cache(#[from] MotionCacheError),
+    /// A setting that does not fit the file.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// The collider and drawing data of `spec`, sampled at `fps` over
+/// `duration_s` of scene time; paths relative to `base_dir`.
+pub fn load_body(
+    spec: &BodySpec,
+    base_dir: &Path,
+    fps: f64,
+    duration_s: f64,
+) -> Result<(MeshCollider, Surface, Vec<String>), BodyError> {
+    let path = base_dir.join(&spec.file);
+    let placement = Placement {
+        rest_pose: Isometry3::from_parts(
+            Translation3::from(Vector3::from(spec.position_m)),
+            nalgebra::UnitQuaternion::from_euler_angles(
+                spec.rotation_deg[0].to_radians(),
+                spec.rotation_deg[1].to_radians(),
+                spec.rotation_deg[2].to_radians(),
+            ),
+        ),
+        motion: None,
+    };
+    let is_cache = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("motion"));
+    let (triangles, animation, surface, unmatched) = if is_cache {
+        if spec.motion.is_some() || spec.blend_in_s > 0.0 {
+            let why = "a motion cache is already posed: `motion` and `blend_in_s` apply to FBX bodies";
+            return Err(BodyError::Invalid(why.into()));
+        }
+        let cache = read_motion_cache(&path)?;
+        let mut animation = cache.animation;
+        animation.start_s = -spec.start_s;
+        animation.cycle = spec.cycle;
+        (cache.triangles, Some(animation), Surface::default(), Vec::new())
+    } else {
+        let body = read_fbx(&path)?;
+        let motion = match &spec.motion {
+            Some(other) => {
+                let source = read_fbx(&base_dir.join(other))?;
+                Some(source.motion.ok_or_else(|| {
+                    BodyError::Invalid(format!("{} has no animation to reuse", base_dir.join(other).display()))
+                })?)
+            }
+            None => body.motion.clone(),
+        };
+        let unmatched = motion.as_ref().map(|m| m.bone_match(&body.skeleton).missing_in_skeleton).unwrap_or_default();
+        let animation = motion.map(|m| sample(&body, &m, spec, fps, duration_s));
+        (body.mesh.triangles.clone(), animation, body.mesh.surface.clone(), unmatched)
+    };
+    let vertices = match &animation {
+        Some(a) => a.frames.first().cloned().unwrap_or_default(),
+        None => read_fbx(&path)?.mesh.positions,
+    };
+    if let Some(bad) = triangles.iter().flatten().find(|&&v| v as usize >= vertices.len()) {
+        return Err(BodyError::Invalid(format!(
+            "triangle vertex {bad} is beyond the body's {} vertices",
+            vertices.len()
+        )));
+    }
+    let collider = MeshCollider {
+        name: spec.name.clone(),
+        vertices,
+        triangles,
+        placement,
+        friction: spec.friction,
+        animation: animation.map(Arc::new),
+    };
+    Ok((collider, surface, unmatched))
+}
+
+/// The body posed at every frame of the scene (and one past the end): from
+/// the bind pose into the motion's first pose over `blend_in_s` (eased), then
+/// the motion from `start_s`.
+fn sample(
+    body: &Body,
+    motion: &crate::body::motion::Motion,
+    spec: &BodySpec,
+    fps: f64,
+    duration_s: f64,
+) -> VertexAnimation {
+    let frames = (duration_s * fps).ceil() as usize + 1;
+    let length = motion.duration_s();
+    let bind = body.bind_pose();
+    let mut first = Vec::new();
+    body.pose_into(motion, spec.start_s.clamp(0.0, length.max(0.0)), &mut first);
+    let mut posed = Vec::new();
+    let frames = (0..frames)
+        .map(|f| {
+            let scene_t = f as f64 / fps;
+            if scene_t < spec.blend_in_s {
+                let s = scene_t / spec.blend_in_s;
+                let w = s * s * (3.0 - 2.0 * s);
+                return bind.iter().zip(&first).map(|(a, b)| a * (1.0 - w) + b * w).collect();
+            }
+            let mut t = spec.start_s + scene_t - spec.blend_in_s;
+            if spec.cycle && length > 0.0 {
+                t = t.rem_euclid(length);
+            }
+            body.pose_into(motion, t.clamp(0.0, length.max(0.0)), &mut posed);
+            posed.clone()
+        })
+        .collect();
+    VertexAnimation { fps, start_s: 0.0, frames, cycle: false }
+}
