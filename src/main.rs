@@ -560,11 +560,20 @@ fn run_import_motion(
         animation: VertexAnimation { fps, start_s: 0.0, frames, cycle },
     };
     write_motion_cache(out, &cache).map_err(input)?;
+    // Read it back as a scene would, and time a frame's load (a copy).
+    let loaded = drape::io::motion_cache::read_motion_cache(out).map_err(input)?;
+    let started = std::time::Instant::now();
+    let mut frame = Vec::new();
+    for f in 0..count {
+        loaded.animation.positions_at(f as f64 / fps, &mut frame);
+    }
+    let load_ms = started.elapsed().as_secs_f64() * 1e3 / count.max(1) as f64;
     println!(
-        "{count} frames of {} vertices at {fps} fps in {} ({:.2} ms per frame to skin)",
+        "{count} frames of {} vertices at {fps} fps in {} ({:.2} ms per frame to skin, {:.3} ms to load a cached frame)",
         body.mesh.vertex_count(),
         out.display(),
-        seconds * 1e3 / count.max(1) as f64
+        seconds * 1e3 / count.max(1) as f64,
+        load_ms
     );
     Ok(())
 }

@@ -64,8 +64,8 @@ pub fn load_body(
     };
     let is_cache = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("motion"));
     let (triangles, animation, surface, unmatched) = if is_cache {
-        if spec.motion.is_some() || spec.blend_in_s > 0.0 {
-            let why = "a motion cache is already posed: `motion` and `blend_in_s` apply to FBX bodies";
+        if spec.motion.is_some() || spec.blend_in_s > 0.0 || spec.speed != 1.0 {
+            let why = "a motion cache is already posed: `motion`, `blend_in_s` and `speed` apply to FBX bodies";
             return Err(BodyError::Invalid(why.into()));
         }
         let cache = read_motion_cache(&path)?;
@@ -111,7 +111,7 @@ pub fn load_body(
 
 /// The body posed at every frame of the scene (and one past the end): from
 /// the bind pose into the motion's first pose over `blend_in_s` (eased), then
-/// the motion from `start_s`.
+/// the motion from `start_s` at `speed`.
 fn sample(
     body: &Body,
     motion: &crate::body::motion::Motion,
@@ -133,7 +133,7 @@ fn sample(
                 let w = s * s * (3.0 - 2.0 * s);
                 return bind.iter().zip(&first).map(|(a, b)| a * (1.0 - w) + b * w).collect();
             }
-            let mut t = spec.start_s + scene_t - spec.blend_in_s;
+            let mut t = spec.start_s + (scene_t - spec.blend_in_s) * spec.speed;
             if spec.cycle && length > 0.0 {
                 t = t.rem_euclid(length);
             }

@@ -89,6 +89,9 @@ pub struct BodySpec {
     /// plays, s (FBX bodies).
     #[serde(default)]
     pub blend_in_s: f64,
+    /// Playback rate of the motion (2 plays it twice as fast), unitless.
+    #[serde(default = "default_speed")]
+    pub speed: f64,
     /// Repeat the motion after its end (a cycle such as an in-place walk);
     /// otherwise the body holds its last pose.
     #[serde(default)]
@@ -102,6 +105,10 @@ pub struct BodySpec {
     /// Friction coefficient overriding the fabric's, unitless.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
+}
+
+fn default_speed() -> f64 {
+    1.0
 }
 
 fn default_body_name() -> String {

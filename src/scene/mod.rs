@@ -308,6 +308,7 @@ impl Resolver<'_> {
             self.check(&format!("{what}: pose"), *v, |_| true, "finite numbers")?;
         }
         self.check(&format!("{what}: blend_in_s"), spec.blend_in_s, |b| (0.0..=60.0).contains(&b), "0 to 60 s")?;
+        self.check(&format!("{what}: speed"), spec.speed, |v| v > 0.0 && v <= 100.0, "0 < speed ≤ 100")?;
         if let Some(mu) = spec.friction {
             self.check(&format!("{what}: friction"), mu, |m| (0.0..=10.0).contains(&m), "0 ≤ friction ≤ 10")?;
         }

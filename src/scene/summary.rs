@@ -77,7 +77,11 @@ pub fn summary(scene: &Scene) -> String {
     }
     for m in &scene.mesh_colliders {
         let p = m.placement.rest_pose.translation.vector;
-        let motion = if m.placement.motion.is_some() { "kinematic" } else { "static" };
+        let motion = match (&m.animation, m.placement.motion.is_some()) {
+            (Some(a), _) => format!("animated ({} frames at {} fps)", a.frames.len(), a.fps),
+            (None, true) => "kinematic".to_owned(),
+            (None, false) => "static".to_owned(),
+        };
         let _ = writeln!(
             out,
             "collider '{}': triangle mesh, {} vertices, {} triangles, at ({:.3}, {:.3}, {:.3}), {motion}",

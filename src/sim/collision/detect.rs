@@ -107,9 +107,16 @@ impl CollisionPipeline {
             }));
         }
         let o = &self.obstacles;
+        // Obstacle triangles away from the whole cloth (a body's head and arms
+        // under a skirt) skip the hierarchy query.
+        let cloth_box = ws.triangle_box.iter().fold(Box3::empty(), |all, b| all.union(b));
         for (t, tri) in o.triangles.iter().enumerate() {
             let [a, b, c] = tri.map(|v| ws.node_box[n + v as usize]);
-            bvh.overlapping(&a.union(&b).union(&c), &mut ws.hits);
+            let tri_box = a.union(&b).union(&c);
+            if !tri_box.overlaps(&cloth_box) {
+                continue;
+            }
+            bvh.overlapping(&tri_box, &mut ws.hits);
             ws.jobs.extend(ws.hits.iter().map(|&h| Job::Mesh(h, t as u32)));
         }
         for &v in &o.feature_vertices {
@@ -219,10 +226,20 @@ impl Narrow<'_> {
         (node as usize).checked_sub(self.cloth_count).map(|o| self.obstacles.vertex_collider[o])
     }
 
+    /// Whether point `i` moves by prescription (a pinned particle or an
+    /// obstacle vertex): contacts among such points only can be neither
+    /// answered nor caused by the solver, so they are not tested.
+    fn kinematic(&self, i: u32) -> bool {
+        self.particles.get(i as usize).is_none_or(|p| p.pinned.is_some())
+    }
+
     /// Vertex `p` against triangle `tri` (point indices): culled by box and by
     /// the start distance, else tested.
     fn vertex_triangle(&self, p: u32, tri: [u32; 3], tri_box: &Box3, found: &mut Vec<Contact>, tests: &mut u64) {
         if tri.contains(&p) || !self.node_box[p as usize].overlaps(tri_box) {
+            return;
+        }
+        if self.kinematic(p) && tri.iter().all(|&v| self.kinematic(v)) {
             return;
         }
         *tests += 1;
@@ -249,8 +266,11 @@ impl Narrow<'_> {
         if !box_of(e1).overlaps(&box_of(e2)) {
             return;
         }
-        *tests += 1;
         let nodes = [e1[0], e1[1], e2[0], e2[1]];
+        if nodes.iter().all(|&v| self.kinematic(v)) {
+            return;
+        }
+        *tests += 1;
         let thickness = self.thickness(&nodes);
         let touching = self.detection.reach(thickness);
         let travel = |e: [u32; 2]| self.displacement[e[0] as usize].max(self.displacement[e[1] as usize]);
