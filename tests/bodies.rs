@@ -186,7 +186,7 @@ fn a_motion_cache_plays_the_body_it_was_made_from() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let scene_text = |file: &str| {
         format!(
-            "[time]\nduration_s = 1.0\n[body]\nfile = \"{file}\"\n[[garment]]\nname = \"cloth\"\npreset = \"cotton\"\n\
+            "[time]\nduration_s = 1.0\n[[body]]\nfile = \"{file}\"\n[[garment]]\nname = \"cloth\"\npreset = \"cotton\"\n\
              mesh = {{ grid = {{ size_m = 0.2, resolution = 4 }} }}\ntranslation_m = [0.0, 2.5, 0.0]\n"
         )
     };

@@ -1,4 +1,4 @@
-//! A scene's `[body]`: an FBX body (its own motion or another file's) or a
+//! A scene's `[[body]]`: an FBX body (its own motion or another file's) or a
 //! motion cache, sampled at the scene's frame rate into a deforming collider.
 
 use std::path::Path;

@@ -59,9 +59,9 @@ pub struct SceneFile {
     /// The obstacles.
     #[serde(default, rename = "collider")]
     pub colliders: Vec<ColliderSpec>,
-    /// An animated body the garments dress.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub body: Option<BodySpec>,
+    /// Animated bodies (`[[body]]`): the garments dress them.
+    #[serde(default, rename = "body", skip_serializing_if = "Vec::is_empty")]
+    pub bodies: Vec<BodySpec>,
     /// How renders and the editor's viewport look at the scene.
     #[serde(default, skip_serializing_if = "CameraSpec::is_automatic")]
     pub camera: CameraSpec,

@@ -57,8 +57,8 @@ pub struct Scene {
     pub colliders: Vec<Collider>,
     /// The triangle-mesh obstacles (the body's among them).
     pub mesh_colliders: Vec<MeshCollider>,
-    /// The animated body, if the scene has one.
-    pub body: Option<SceneBody>,
+    /// The animated bodies.
+    pub bodies: Vec<SceneBody>,
     /// The collision pipeline's constants.
     pub collision: CollisionSettings,
 }
@@ -263,10 +263,14 @@ impl Resolver<'_> {
                 SceneCollider::Mesh(m) => mesh_colliders.push(m),
             }
         }
-        let body = match &file.body {
-            Some(spec) => Some(self.body(spec, &file, &mut mesh_colliders)?),
-            None => None,
-        };
+        let mut bodies = Vec::new();
+        for spec in &file.bodies {
+            if mesh_colliders.iter().any(|m: &MeshCollider| m.name == spec.name) {
+                let why = "another body or mesh collider has this name: give each [[body]] its own `name`";
+                return Err(self.invalid(format!("body '{}'", spec.name), why));
+            }
+            bodies.push(self.body(spec, &file, &mut mesh_colliders)?);
+        }
         let garments =
             file.garments.iter().map(|g| self.garment(g, &file, &mesh_colliders)).collect::<Result<Vec<_>, _>>()?;
         for (i, g) in garments.iter().enumerate() {
@@ -296,7 +300,7 @@ impl Resolver<'_> {
             garments,
             colliders,
             mesh_colliders,
-            body,
+            bodies,
             collision,
             file,
         })

@@ -75,6 +75,14 @@ pub fn summary(scene: &Scene) -> String {
             p.z
         );
     }
+    for b in &scene.bodies {
+        let name = scene.mesh_colliders.get(b.collider).map_or("", |m| m.name.as_str());
+        let _ = writeln!(out, "body '{name}': {}", b.origin);
+        if !b.unmatched_bones.is_empty() {
+            let _ =
+                writeln!(out, "  bones of the motion this body lacks (not moved): {}", b.unmatched_bones.join(", "));
+        }
+    }
     for m in &scene.mesh_colliders {
         let p = m.placement.rest_pose.translation.vector;
         let motion = match (&m.animation, m.placement.motion.is_some()) {

@@ -122,7 +122,7 @@ impl Stage {
         }
         for (index, collider) in scene.mesh_colliders.iter().enumerate() {
             if collider.animation.is_some() {
-                let surface = scene.body.as_ref().filter(|b| b.collider == index).map(|b| b.surface.clone());
+                let surface = scene.bodies.iter().find(|b| b.collider == index).map(|b| b.surface.clone());
                 stage.add_animated(collider, surface.unwrap_or_default());
                 continue;
             }
