@@ -171,6 +171,25 @@ fn sampler_entry(binding: u32, kind: wgpu::SamplerBindingType) -> wgpu::BindGrou
     }
 }
 
+/// A WGSL module and the pipeline layout of its two bind groups.
+fn module_and_layout(
+    device: &wgpu::Device,
+    label: &str,
+    wgsl: &str,
+    groups: [&wgpu::BindGroupLayout; 2],
+) -> (wgpu::ShaderModule, wgpu::PipelineLayout) {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &groups.map(Some),
+        immediate_size: 0,
+    });
+    (module, layout)
+}
+
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     const ATTRIBUTES: [wgpu::VertexAttribute; 3] =
         wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
@@ -325,15 +344,8 @@ impl Renderer {
         frame: &wgpu::BindGroupLayout,
         object: &wgpu::BindGroupLayout,
     ) -> wgpu::RenderPipeline {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("pbr.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/pbr.wgsl").into()),
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("pbr"),
-            bind_group_layouts: &[Some(frame), Some(object)],
-            immediate_size: 0,
-        });
+        let (module, layout) =
+            module_and_layout(device, "pbr", include_str!("../../shaders/pbr.wgsl"), [frame, object]);
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("pbr"),
             layout: Some(&layout),
@@ -373,15 +385,8 @@ impl Renderer {
         frame: &wgpu::BindGroupLayout,
         object: &wgpu::BindGroupLayout,
     ) -> wgpu::RenderPipeline {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("shadow.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/shadow.wgsl").into()),
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("shadow"),
-            bind_group_layouts: &[Some(frame), Some(object)],
-            immediate_size: 0,
-        });
+        let (module, layout) =
+            module_and_layout(device, "shadow", include_str!("../../shaders/shadow.wgsl"), [frame, object]);
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("shadow"),
             layout: Some(&layout),

@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 use super::detect::{Detection, Scope};
 use super::response::{Points, rigidify};
@@ -48,10 +48,12 @@ impl CollisionPipeline {
                     .iter()
                     .filter_map(|&(_, i)| Some((i, self.kinematic(i)?)))
                     .collect();
-                // A zone holding a deforming point (a body's skin) moves each of
-                // its free points with the nearest kinematic point: cloth pinched
-                // between two parts of a body follows the part it touches. A zone
-                // holding only rigid bodies moves with the rigid body it holds.
+                // A zone holding a deforming point (a body's skin) first moves
+                // with the rigid motion that best fits its kinematic points; if
+                // that has not freed it within half the rounds (cloth pinched
+                // between two parts of the body moving apart), each free point
+                // moves with its nearest kinematic point. A zone holding only
+                // rigid bodies moves with the rigid body it holds.
                 let deforming = kinematic.iter().any(|(_, k)| *k == Kinematic::Deforming);
                 let anchors: Vec<(Vector3<f64>, Vector3<f64>)> = match deforming {
                     true => {
@@ -59,20 +61,24 @@ impl CollisionPipeline {
                     }
                     false => Vec::new(),
                 };
-                let rigid = kinematic.iter().find_map(|(_, k)| match k {
-                    Kinematic::Rigid(p) => {
-                        Some(p.world_from_local(window.t1) * p.world_from_local(window.t0).inverse())
-                    }
-                    Kinematic::Deforming => None,
-                });
+                let per_point = deforming && round > self.settings.zone_rounds / 2;
+                let rigid = match deforming {
+                    true => Some(rigid_fit(anchors.iter().copied())),
+                    false => kinematic.iter().find_map(|(_, k)| match k {
+                        Kinematic::Rigid(p) => {
+                            Some(p.world_from_local(window.t1) * p.world_from_local(window.t0).inverse())
+                        }
+                        Kinematic::Deforming => None,
+                    }),
+                };
                 let carry = move |p: &Vector3<f64>| -> Vector3<f64> {
-                    match (anchors.is_empty(), rigid) {
-                        (false, _) => p + nearest_displacement(&anchors, p),
-                        (true, Some(step)) => (step * Point3::from(*p)).coords,
-                        (true, None) => *p,
+                    match (per_point, rigid) {
+                        (true, _) => p + nearest_displacement(&anchors, p),
+                        (false, Some(step)) => (step * Point3::from(*p)).coords,
+                        (false, None) => *p,
                     }
                 };
-                let carried = deforming || rigid.is_some();
+                let carried = rigid.is_some();
                 let ws = &mut self.ws;
                 let mut points = Points {
                     start: &ws.start,
@@ -138,6 +144,31 @@ fn nearest_displacement(anchors: &[(Vector3<f64>, Vector3<f64>)], p: &Vector3<f6
         .map_or_else(Vector3::zeros, |(start, end)| end - start)
 }
 
+/// The rigid motion that best maps each pair's first point onto its second
+/// (least squares, Kabsch): the translation of the centroids and the rotation
+/// from the SVD of the cross-covariance. With fewer than three points, or all
+/// on a line, only the translation.
+fn rigid_fit(pairs: impl Iterator<Item = (Vector3<f64>, Vector3<f64>)> + Clone) -> Isometry3<f64> {
+    let n = pairs.clone().count() as f64;
+    if n == 0.0 {
+        return Isometry3::identity();
+    }
+    let from = pairs.clone().map(|p| p.0).sum::<Vector3<f64>>() / n;
+    let to = pairs.clone().map(|p| p.1).sum::<Vector3<f64>>() / n;
+    let covariance: Matrix3<f64> = pairs.map(|(a, b)| (a - from) * (b - to).transpose()).sum();
+    let svd = covariance.svd(true, true);
+    let rotation = match (svd.u, svd.v_t) {
+        (Some(u), Some(v_t)) if n >= 3.0 && svd.singular_values[1] > 1e-12 * svd.singular_values[0].max(1e-300) => {
+            let v = v_t.transpose();
+            let d = (v * u.transpose()).determinant().signum();
+            Rotation3::from_matrix_unchecked(v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose())
+        }
+        _ => Rotation3::identity(),
+    };
+    let rotation = UnitQuaternion::from_rotation_matrix(&rotation);
+    Isometry3::from_parts(Translation3::from(to - rotation * from), rotation)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -148,5 +179,19 @@ mod tests {
         assert_eq!(nearest_displacement(&anchors, &Vector3::new(0.0, 0.2, 0.0)), Vector3::x());
         assert_eq!(nearest_displacement(&anchors, &Vector3::new(0.0, 0.9, 0.0)), -Vector3::z());
         assert_eq!(nearest_displacement(&[], &Vector3::zeros()), Vector3::zeros());
+    }
+
+    #[test]
+    fn rigid_fit_recovers_a_rigid_motion_and_falls_back_to_translation() {
+        let motion = Isometry3::new(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.2, -0.4, 0.1));
+        let points = [Vector3::zeros(), Vector3::x(), Vector3::y(), Vector3::new(0.3, 0.2, 1.0)];
+        let pairs: Vec<_> = points.iter().map(|p| (*p, (motion * Point3::from(*p)).coords)).collect();
+        let fit = rigid_fit(pairs.iter().copied());
+        for p in points {
+            assert!((fit * Point3::from(p) - motion * Point3::from(p)).norm() < 1e-9);
+        }
+        let single = rigid_fit([(Vector3::x(), Vector3::new(1.0, 2.0, 0.0))].into_iter());
+        assert!((single.translation.vector - Vector3::new(0.0, 2.0, 0.0)).norm() < 1e-12);
+        assert_eq!(single.rotation, UnitQuaternion::identity());
     }
 }
