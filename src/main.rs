@@ -287,7 +287,8 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failur
     let summary = BakeSummary::new(&scene, &records, frames, stopped);
     folder.finish(&summary).map_err(input)?;
     println!(
-        "{} frames of '{}' in {}: median {:.1} ms/frame on {} threads, {:.1} CG iterations/step, max strain {:.2} %, {} contacts at most",
+        "{} frames of '{}' in {}: median {:.1} ms/frame on {} threads, {:.1} CG iterations/step, max strain {:.2} %, \
+         at most {} particle-collider and {} triangle contacts",
         summary.frames,
         scene.name,
         out.display(),
@@ -296,6 +297,7 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failur
         summary.cg_iterations_per_step_mean,
         summary.max_strain * 100.0,
         summary.contacts_max,
+        summary.triangle_contacts_max,
     );
     match (failure, cancelled) {
         (Some(e), _) => Err(Failure::Internal(format!("{e} (frames before it are in {})", out.display()))),

@@ -61,6 +61,9 @@ pub struct BakeSummary {
     pub mean_strain_last: f64,
     /// Most particle-collider contacts in a step.
     pub contacts_max: u32,
+    /// Most triangle-feature contacts (vertex-triangle and edge-edge, cloth
+    /// and mesh colliders such as a body) in a frame.
+    pub triangle_contacts_max: u32,
     /// Intersecting triangle pairs (cloth-cloth and cloth-collider) found by the
     /// independent checker, summed over every frame end. Zero is the promise.
     pub intersections_total: u32,
@@ -172,6 +175,7 @@ impl BakeSummary {
             max_strain_frame: worst.map_or(0, |r| r.frame),
             mean_strain_last: records.last().map_or(0.0, |r| r.mean_strain),
             contacts_max: records.iter().map(|r| r.contacts).max().unwrap_or(0),
+            triangle_contacts_max: records.iter().map(|r| r.triangle_contacts).max().unwrap_or(0),
             intersections_total: records.iter().map(|r| r.intersections.pairs()).sum(),
             penetrations_total: records.iter().map(|r| r.intersections.penetrating_vertices).sum(),
             collision_tests: records.iter().map(|r| r.collision_tests).sum(),
