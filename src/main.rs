@@ -467,6 +467,12 @@ fn run_render(source: &Path, out: &Path, request: &RenderRequest) -> Result<(), 
     Ok(())
 }
 
+/// The animation of an FBX file, for `--motion`.
+fn motion_of(path: &Path) -> Result<drape::body::motion::Motion, Failure> {
+    let source = drape::io::fbx::read_fbx(path).map_err(input)?;
+    source.motion.ok_or_else(|| Failure::Input(format!("{} has no animation", path.display())))
+}
+
 fn run_body(path: &Path, motion_path: Option<&Path>) -> Result<(), Failure> {
     use drape::io::fbx::read_fbx;
     let body = read_fbx(path).map_err(input)?;
@@ -480,10 +486,7 @@ fn run_body(path: &Path, motion_path: Option<&Path>) -> Result<(), Failure> {
         high.y - low.y
     );
     let motion = match motion_path {
-        Some(other) => {
-            let source = read_fbx(other).map_err(input)?;
-            source.motion.ok_or_else(|| Failure::Input(format!("{} has no animation", other.display())))?
-        }
+        Some(other) => motion_of(other)?,
         None => match body.motion.clone() {
             Some(m) => m,
             None => {
@@ -533,10 +536,7 @@ fn run_import_motion(
     }
     let body = read_fbx(path).map_err(input)?;
     let motion = match motion_path {
-        Some(other) => read_fbx(other)
-            .map_err(input)?
-            .motion
-            .ok_or_else(|| Failure::Input(format!("{} has no animation", other.display())))?,
+        Some(other) => motion_of(other)?,
         None => body.motion.clone().ok_or_else(|| Failure::Input(format!("{} has no animation", path.display())))?,
     };
     let matched = motion.bone_match(&body.skeleton);

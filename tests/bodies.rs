@@ -217,3 +217,15 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
     let end = centre(baker.simulator().positions());
     assert!(end.z - start.z > 2.0, "the skirt travels with the body: {:.2} m", end.z - start.z);
 }
+
+#[test]
+fn a_body_sampled_over_an_absurdly_long_scene_is_refused_before_allocating() {
+    let fbx = repo("assets/bodies/female_walk.fbx");
+    let text = format!(
+        "[time]\nfps = 1000.0\nduration_s = 36000.0\n[[body]]\nfile = \"{}\"\n[[garment]]\nname = \"cloth\"\n\
+         preset = \"cotton\"\nmesh = {{ grid = {{ size_m = 0.2, resolution = 4 }} }}\n",
+        fbx.display()
+    );
+    let e = drape::scene::Scene::parse(&text, "long", Path::new("."), "long.toml").unwrap_err().to_string();
+    assert!(e.contains("long.toml") && e.contains("GB") && e.contains("import-motion"), "{e}");
+}

@@ -15,6 +15,9 @@ use crate::sim::collision::obstacles::MeshCollider;
 use crate::sim::motion::Placement;
 use crate::sim::vertex_animation::VertexAnimation;
 
+/// Most memory a scene may spend on a body's sampled frames, bytes.
+const MAX_SAMPLED_BYTES: f64 = 2e9;
+
 /// The animated body of a scene.
 #[derive(Clone, Debug)]
 pub struct SceneBody {
@@ -54,16 +57,12 @@ pub fn load_body(
     let placement = Placement {
         rest_pose: Isometry3::from_parts(
             Translation3::from(Vector3::from(spec.position_m)),
-            nalgebra::UnitQuaternion::from_euler_angles(
-                spec.rotation_deg[0].to_radians(),
-                spec.rotation_deg[1].to_radians(),
-                spec.rotation_deg[2].to_radians(),
-            ),
+            super::rotation(spec.rotation_deg),
         ),
         motion: None,
     };
     let is_cache = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("motion"));
-    let (triangles, animation, surface, unmatched) = if is_cache {
+    let (triangles, animation, bind, surface, unmatched) = if is_cache {
         if spec.motion.is_some() || spec.blend_in_s > 0.0 || spec.speed != 1.0 {
             let why = "a motion cache is already posed: `motion`, `blend_in_s` and `speed` apply to FBX bodies";
             return Err(BodyError::Invalid(why.into()));
@@ -72,7 +71,7 @@ pub fn load_body(
         let mut animation = cache.animation;
         animation.start_s = -spec.start_s;
         animation.cycle = spec.cycle;
-        (cache.triangles, Some(animation), Surface::default(), Vec::new())
+        (cache.triangles, Some(animation), Vec::new(), Surface::default(), Vec::new())
     } else {
         let body = read_fbx(&path)?;
         let motion = match &spec.motion {
@@ -85,12 +84,15 @@ pub fn load_body(
             None => body.motion.clone(),
         };
         let unmatched = motion.as_ref().map(|m| m.bone_match(&body.skeleton).missing_in_skeleton).unwrap_or_default();
-        let animation = motion.map(|m| sample(&body, &m, spec, fps, duration_s));
-        (body.mesh.triangles.clone(), animation, body.mesh.surface.clone(), unmatched)
+        let animation = match motion {
+            Some(m) => Some(sample(&body, &m, spec, fps, duration_s)?),
+            None => None,
+        };
+        (body.mesh.triangles, animation, body.mesh.positions, body.mesh.surface, unmatched)
     };
     let vertices = match &animation {
         Some(a) => a.frames.first().cloned().unwrap_or_default(),
-        None => read_fbx(&path)?.mesh.positions,
+        None => bind,
     };
     if let Some(bad) = triangles.iter().flatten().find(|&&v| v as usize >= vertices.len()) {
         return Err(BodyError::Invalid(format!(
@@ -118,8 +120,17 @@ fn sample(
     spec: &BodySpec,
     fps: f64,
     duration_s: f64,
-) -> VertexAnimation {
+) -> Result<VertexAnimation, BodyError> {
     let frames = (duration_s * fps).ceil() as usize + 1;
+    let bytes = frames as f64 * body.mesh.vertex_count() as f64 * std::mem::size_of::<Vector3<f64>>() as f64;
+    if bytes > MAX_SAMPLED_BYTES {
+        return Err(BodyError::Invalid(format!(
+            "{frames} frames of {} vertices would take {:.1} GB: shorten the scene, lower its frame rate, \
+             or bake the motion with drape import-motion",
+            body.mesh.vertex_count(),
+            bytes / 1e9
+        )));
+    }
     let length = motion.duration_s();
     let bind = body.bind_pose();
     let mut first = Vec::new();
@@ -141,5 +152,5 @@ fn sample(
             posed.clone()
         })
         .collect();
-    VertexAnimation { fps, start_s: 0.0, frames, cycle: false }
+    Ok(VertexAnimation { fps, start_s: 0.0, frames, cycle: false })
 }

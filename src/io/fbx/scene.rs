@@ -52,7 +52,7 @@ pub fn body(document: &Document, name: String) -> Result<Body, String> {
     rest_at_bind(document, &mut skeleton, &bone_of_model, &clusters);
     let skin = skin_of(&clusters, &bone_of_model, &skeleton, positions)?;
     let motion = animation(document, &skeleton, &bone_of_model, &up_in_file)?;
-    let body = Body {
+    let mut body = Body {
         name,
         mesh: TriMesh { positions: Vec::new(), triangles, quads: Vec::new(), surface },
         skeleton,
@@ -61,7 +61,6 @@ pub fn body(document: &Document, name: String) -> Result<Body, String> {
         world_from_file,
         up_in_file,
     };
-    let mut body = body;
     body.mesh.positions = body.bind_pose();
     Ok(body)
 }
@@ -200,7 +199,8 @@ fn polygons(corners: &[i64], vertex_count: usize) -> Result<Vec<(usize, Vec<u32>
     let mut current = Vec::new();
     let mut first = 0;
     for (i, &c) in corners.iter().enumerate() {
-        let (index, last) = if c < 0 { (-c - 1, true) } else { (c, false) };
+        // `!c` is `-(c + 1)` without overflow.
+        let (index, last) = if c < 0 { (!c, true) } else { (c, false) };
         let index = usize::try_from(index).ok().filter(|&v| v < vertex_count).ok_or_else(|| {
             format!("PolygonVertexIndex entry {i} refers to vertex {index}, but the mesh has {vertex_count}")
         })?;
