@@ -6,9 +6,11 @@
 //! The physics in [`sim`] is pure and deterministic: the same scene and
 //! settings give the same bake, bit for bit, at any thread count.
 //!
-//! Layers (arrows point down): the `drape` binary → [`bench`], [`bake`] →
+//! Layers (arrows point down): the `drape` binary → [`app`] (the editor),
+//! [`bench`], [`bake`] →
 //! [`scene`] → [`io`], [`sim`] → [`mesh`].
 
+pub mod app;
 pub mod bake;
 pub mod bench;
 pub mod body;

@@ -24,12 +24,29 @@ struct Cli {
     /// Solver threads (default: one per core). Results are identical at any count.
     #[arg(long, global = true)]
     threads: Option<usize>,
+    /// What to do (default: open the editor on the default scene).
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
+
+/// The built-in default scene: the skirt on the walking body.
+const DEFAULT_SCENE: &str = "assets/scenes/skirt_walk.toml";
 
 #[derive(Subcommand)]
 enum Command {
+    /// Open the editor (a window): tune the fabric while the cloth simulates,
+    /// bake, play back, export. `drape` alone opens it on the default scene.
+    Edit {
+        /// Scene file (TOML); default: the skirt on the walking body.
+        scene: Option<PathBuf>,
+        /// Write the window's image to this PNG once the scene is shown, then
+        /// close (smoke tests, screenshots for documentation).
+        #[arg(long, hide = true)]
+        screenshot: Option<PathBuf>,
+        /// With --screenshot: simulate this many frames live first.
+        #[arg(long, hide = true, default_value_t = 0)]
+        screenshot_after: usize,
+    },
     /// Simulate a scene without a window and write its frames: OBJ sequence, PC2
     /// point caches, summary.json.
     Bake {
@@ -190,7 +207,12 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    let result = match cli.command {
+    let command = cli.command.unwrap_or(Command::Edit { scene: None, screenshot: None, screenshot_after: 0 });
+    let result = match command {
+        Command::Edit { scene, screenshot, screenshot_after } => {
+            let screenshot = screenshot.map(|path| drape::app::Screenshot { path, after_frames: screenshot_after });
+            run_edit(scene, screenshot)
+        }
         Command::Bake { scene, out, frames } => run_bake(&scene, &out, frames),
         Command::Check { scene } => run_check(&scene),
         Command::CheckBake { dir, scene, json } => run_check_bake(&dir, scene.as_deref(), json.as_deref()),
@@ -241,6 +263,21 @@ fn load_scene(path: &Path) -> Result<Scene, Failure> {
         }
     }
     Ok(scene)
+}
+
+/// The default scene: in the working folder, else where drape was built.
+fn default_scene() -> PathBuf {
+    let here = PathBuf::from(DEFAULT_SCENE);
+    if here.is_file() { here } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE) }
+}
+
+fn run_edit(scene: Option<PathBuf>, screenshot: Option<drape::app::Screenshot>) -> Result<(), Failure> {
+    let path = scene.unwrap_or_else(default_scene);
+    let scene = load_scene(&path)?;
+    drape::app::run(scene, screenshot).map_err(|e| match e {
+        drape::app::AppError::Window(_) => input(e),
+        drape::app::AppError::Graphics(_) => Failure::Internal(e.to_string()),
+    })
 }
 
 fn run_check(path: &Path) -> Result<(), Failure> {

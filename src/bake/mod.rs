@@ -9,7 +9,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
 use crate::sim::adaptive::{AdaptiveSettings, Stepper, Unrecoverable};
-use crate::sim::step::StageTimings;
+use crate::sim::fabric::Fabric;
+use crate::sim::step::{StageTimings, TuningError};
 use crate::sim::{SimError, Simulator};
 
 /// What happened during one frame.
@@ -62,6 +63,7 @@ pub struct FrameRecord {
 pub struct Baker {
     sim: Simulator,
     stepper: Stepper,
+    frame_s: f64,
     checker: Checker,
     steps_per_frame: u32,
     frame: usize,
@@ -92,7 +94,33 @@ impl Baker {
         let sim = scene.simulator()?;
         let checker = Checker::new(sim.cloth().triangles.clone(), &scene.colliders, &scene.mesh_colliders);
         let stepper = Stepper::new(scene.step_duration(), AdaptiveSettings::default());
-        Ok(Baker { sim, stepper, checker, steps_per_frame: scene.steps_per_frame, frame: 0 })
+        Ok(Baker {
+            sim,
+            stepper,
+            frame_s: scene.frame_duration(),
+            checker,
+            steps_per_frame: scene.steps_per_frame,
+            frame: 0,
+        })
+    }
+
+    /// The independent checker's count on the current state.
+    pub fn initial_check(&self) -> Intersections {
+        self.checker.check(self.sim.positions(), self.sim.time())
+    }
+
+    /// Gives garment `garment` a new fabric from the next step on (blended in,
+    /// see [`Simulator::set_fabric`]).
+    pub fn set_fabric(&mut self, garment: usize, fabric: Fabric) -> Result<(), TuningError> {
+        self.sim.set_fabric(garment, fabric)
+    }
+
+    /// Runs the next frames with `steps_per_frame` solver steps (≥ 1) and
+    /// linear-solver `tolerance` (unitless).
+    pub fn set_effort(&mut self, steps_per_frame: u32, tolerance: f64) {
+        self.steps_per_frame = steps_per_frame.max(1);
+        self.stepper = Stepper::new(self.frame_s / f64::from(self.steps_per_frame), AdaptiveSettings::default());
+        self.sim.set_solver_tolerance(tolerance);
     }
 
     /// The simulation in its current state.
@@ -149,7 +177,7 @@ pub fn run(
     mut on_frame: impl FnMut(&Simulator, &FrameRecord) -> Result<(), BakeError>,
 ) -> Result<(Vec<FrameRecord>, Option<BakeError>), BakeError> {
     let mut baker = Baker::new(scene)?;
-    let initial = baker.checker.check(baker.simulator().positions(), 0.0);
+    let initial = baker.initial_check();
     on_frame(baker.simulator(), &FrameRecord { intersections: initial, ..Default::default() })?;
     let mut records = Vec::with_capacity(frames);
     while baker.frame() < frames && !cancel.load(Ordering::Relaxed) {

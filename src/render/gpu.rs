@@ -47,6 +47,11 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        Gpu::open(&adapter)
+    }
+
+    /// Opens a device on `adapter` (e.g. one compatible with a window's surface).
+    pub fn open(adapter: &wgpu::Adapter) -> Result<Gpu, RenderError> {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("drape"),
             required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),

@@ -20,4 +20,4 @@ pub use draw::{DrawMesh, Material, Vertex};
 pub use gpu::{Gpu, RenderError};
 pub use lights::{LightRig, LightRigError};
 pub use renderer::{Renderer, View};
-pub use target::OffscreenTarget;
+pub use target::{OffscreenTarget, TextureTarget};

@@ -15,8 +15,6 @@ pub struct OffscreenTarget {
     depth: wgpu::TextureView,
     resolved: wgpu::Texture,
     resolved_view: wgpu::TextureView,
-    readback: wgpu::Buffer,
-    padded_row_bytes: u32,
 }
 
 fn attachment(
@@ -26,6 +24,7 @@ fn attachment(
     format: wgpu::TextureFormat,
     samples: u32,
     usage: wgpu::TextureUsages,
+    view_formats: &[wgpu::TextureFormat],
 ) -> wgpu::Texture {
     gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
@@ -35,16 +34,23 @@ fn attachment(
         dimension: wgpu::TextureDimension::D2,
         format,
         usage,
-        view_formats: &[],
+        view_formats,
     })
+}
+
+/// The multisampled colour and depth attachments of a `size` image.
+fn multisampled(gpu: &Gpu, size: (u32, u32)) -> [wgpu::TextureView; 2] {
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+    let color = attachment(gpu, "colour", size, COLOR_FORMAT, SAMPLE_COUNT, usage, &[]);
+    let depth = attachment(gpu, "depth", size, DEPTH_FORMAT, SAMPLE_COUNT, usage, &[]);
+    [color.create_view(&Default::default()), depth.create_view(&Default::default())]
 }
 
 impl OffscreenTarget {
     /// A `width` × `height` target, pixels.
     pub fn new(gpu: &Gpu, width: u32, height: u32) -> OffscreenTarget {
         let size = (width, height);
-        let color = attachment(gpu, "colour", size, COLOR_FORMAT, SAMPLE_COUNT, wgpu::TextureUsages::RENDER_ATTACHMENT);
-        let depth = attachment(gpu, "depth", size, DEPTH_FORMAT, SAMPLE_COUNT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        let [color, depth] = multisampled(gpu, size);
         let resolved = attachment(
             gpu,
             "resolved",
@@ -52,24 +58,15 @@ impl OffscreenTarget {
             COLOR_FORMAT,
             1,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            &[],
         );
-        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let padded_row_bytes = (width * BYTES_PER_PIXEL).div_ceil(align) * align;
-        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: u64::from(padded_row_bytes) * u64::from(height),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
         OffscreenTarget {
             width,
             height,
-            color: color.create_view(&Default::default()),
-            depth: depth.create_view(&Default::default()),
+            color,
+            depth,
             resolved_view: resolved.create_view(&Default::default()),
             resolved,
-            readback,
-            padded_row_bytes,
         }
     }
 
@@ -82,48 +79,123 @@ impl OffscreenTarget {
     pub fn render(&self, gpu: &Gpu, renderer: &Renderer, view: &View) -> Result<image::RgbaImage, RenderError> {
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         renderer.encode(&mut encoder, view, &self.color, Some(&self.resolved_view), &self.depth);
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: &self.resolved,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &self.readback,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(self.padded_row_bytes),
-                    rows_per_image: Some(self.height),
-                },
-            },
-            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
-        );
         gpu.queue.submit([encoder.finish()]);
-        self.read(gpu)
+        read_texture(gpu, &self.resolved, (self.width, self.height))
+    }
+}
+
+/// Reads a `size` texture of 4 bytes per pixel (RGBA or BGRA, which is
+/// swapped to RGBA) back into an image.
+pub fn read_texture(
+    gpu: &Gpu,
+    texture: &wgpu::Texture,
+    (width, height): (u32, u32),
+) -> Result<image::RgbaImage, RenderError> {
+    let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let padded_row_bytes = (width * BYTES_PER_PIXEL).div_ceil(align) * align;
+    let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: u64::from(padded_row_bytes) * u64::from(height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read back") });
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row_bytes),
+                rows_per_image: Some(height),
+            },
+        },
+        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+    );
+    gpu.queue.submit([encoder.finish()]);
+    let slice = readback.slice(..);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |result| {
+        let _ = sender.send(result);
+    });
+    gpu.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Readback(e.to_string()))?;
+    receiver
+        .recv()
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    let row_bytes = (width * BYTES_PER_PIXEL) as usize;
+    let mut pixels = Vec::with_capacity(row_bytes * height as usize);
+    {
+        let mapped = slice.get_mapped_range().map_err(|e| RenderError::Readback(e.to_string()))?;
+        for row in mapped.chunks(padded_row_bytes as usize) {
+            pixels.extend_from_slice(&row[..row_bytes]);
+        }
+    }
+    readback.unmap();
+    if matches!(texture.format(), wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb) {
+        for pixel in pixels.chunks_exact_mut(4) {
+            pixel.swap(0, 2);
+        }
+    }
+    image::RgbaImage::from_raw(width, height, pixels)
+        .ok_or_else(|| RenderError::Readback("image size does not match the pixel data".into()))
+}
+
+/// A render target that stays on the GPU to be drawn by a UI (the editor's
+/// viewport): the image is resolved into a texture that can be sampled.
+pub struct TextureTarget {
+    /// Size, pixels.
+    pub size: (u32, u32),
+    color: wgpu::TextureView,
+    depth: wgpu::TextureView,
+    image: wgpu::Texture,
+    resolved: wgpu::TextureView,
+    /// The resolved image viewed as plain `Rgba8Unorm`: sampling it gives the
+    /// sRGB-encoded values, which is what UI toolkits (egui) composite.
+    pub encoded: wgpu::TextureView,
+}
+
+impl TextureTarget {
+    /// A `width` × `height` target, pixels.
+    pub fn new(gpu: &Gpu, width: u32, height: u32) -> TextureTarget {
+        let size = (width.max(1), height.max(1));
+        let [color, depth] = multisampled(gpu, size);
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC;
+        let plain = wgpu::TextureFormat::Rgba8Unorm;
+        let resolved = attachment(gpu, "viewport", size, COLOR_FORMAT, 1, usage, &[plain]);
+        let encoded = resolved.create_view(&wgpu::TextureViewDescriptor { format: Some(plain), ..Default::default() });
+        TextureTarget {
+            size,
+            color,
+            depth,
+            resolved: resolved.create_view(&Default::default()),
+            image: resolved,
+            encoded,
+        }
     }
 
-    fn read(&self, gpu: &Gpu) -> Result<image::RgbaImage, RenderError> {
-        let slice = self.readback.slice(..);
-        let (sender, receiver) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |result| {
-            let _ = sender.send(result);
-        });
-        gpu.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Readback(e.to_string()))?;
-        receiver
-            .recv()
-            .map_err(|e| RenderError::Readback(e.to_string()))?
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
-        let row_bytes = (self.width * BYTES_PER_PIXEL) as usize;
-        let mut pixels = Vec::with_capacity(row_bytes * self.height as usize);
-        {
-            let mapped = slice.get_mapped_range().map_err(|e| RenderError::Readback(e.to_string()))?;
-            for row in mapped.chunks(self.padded_row_bytes as usize) {
-                pixels.extend_from_slice(&row[..row_bytes]);
-            }
-        }
-        self.readback.unmap();
-        image::RgbaImage::from_raw(self.width, self.height, pixels)
-            .ok_or_else(|| RenderError::Readback("image size does not match the pixel data".into()))
+    /// Width / height.
+    pub fn aspect(&self) -> f32 {
+        self.size.0 as f32 / self.size.1 as f32
+    }
+
+    /// Renders `view` with `renderer` into the texture (no read-back).
+    pub fn render(&self, gpu: &Gpu, renderer: &Renderer, view: &View) {
+        let mut encoder =
+            gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewport") });
+        renderer.encode(&mut encoder, view, &self.color, Some(&self.resolved), &self.depth);
+        gpu.queue.submit([encoder.finish()]);
+    }
+
+    /// Reads the last image back (sRGB-encoded RGBA), e.g. for tests.
+    pub fn read(&self, gpu: &Gpu) -> Result<image::RgbaImage, RenderError> {
+        read_texture(gpu, &self.image, self.size)
     }
 }

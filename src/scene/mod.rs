@@ -166,14 +166,35 @@ impl Scene {
     pub fn load_edited(path: &Path, edit: impl FnOnce(&mut SceneFile)) -> Result<Scene, SceneError> {
         let text =
             std::fs::read_to_string(path).map_err(|source| SceneError::Read { path: path.to_owned(), source })?;
-        let origin = path.display().to_string();
-        let mut file = parse_file(&text, &origin)?;
+        let mut file = parse_file(&text, &path.display().to_string())?;
         edit(&mut file);
+        Scene::resolve(file, path)
+    }
+
+    /// Resolves a scene file as if it were at `path` (relative paths in it
+    /// are relative to that folder): the editor's scene after edits.
+    pub fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
+        let origin = path.display().to_string();
         let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
         let mut scene =
             Resolver { base_dir: path.parent().unwrap_or(Path::new("")), origin: &origin }.scene(file, &name)?;
         scene.source = Some(path.to_owned());
         Ok(scene)
+    }
+
+    /// The scene file with every garment's current fabric and the solver's
+    /// effort written out in full, so that opening it again gives the same
+    /// simulation.
+    pub fn to_file(&self) -> SceneFile {
+        let mut file = self.file.clone();
+        file.solver.steps_per_frame = Some(self.steps_per_frame);
+        file.solver.tolerance = self.solver.tolerance;
+        for (spec, garment) in file.garments.iter_mut().zip(&self.garments) {
+            if let Ok(table) = toml::Table::try_from(&garment.fabric) {
+                spec.fabric = table;
+            }
+        }
+        file
     }
 
     /// Parses and resolves scene text; `origin` names it in errors.

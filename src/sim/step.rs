@@ -533,6 +533,14 @@ impl Simulator {
         Ok(())
     }
 
+    /// Sets the linear solver's relative tolerance (unitless, 0 < t < 1) from
+    /// the next solve on.
+    pub fn set_solver_tolerance(&mut self, tolerance: f64) {
+        if tolerance > 0.0 && tolerance < 1.0 {
+            self.settings.tolerance = tolerance;
+        }
+    }
+
     /// Stores the state a step changes into `into` (reusing its buffers).
     pub fn checkpoint(&self, into: &mut Checkpoint) {
         into.x.clone_from(&self.x);

@@ -315,7 +315,12 @@ impl Stage {
 
     /// The view of the current pose at time `t_s` under `rig`.
     pub fn view(&self, aspect: f32, rig: &LightRig, t_s: f64) -> View {
-        let camera = self.camera(aspect, t_s);
+        self.view_through(self.camera(aspect, t_s), aspect, rig, t_s)
+    }
+
+    /// The view of the current pose at time `t_s` under `rig` through
+    /// `camera` (e.g. one the user moved).
+    pub fn view_through(&self, camera: OrbitCamera, aspect: f32, rig: &LightRig, t_s: f64) -> View {
         let shadow_bounds = self.rest_bounds.union(self.bounds());
         let mut view = View::new(camera, aspect, rig, t_s as f32, shadow_bounds);
         view.ground_extent_m = GROUND_HALF_SIZE_M;

@@ -1,0 +1,123 @@
+//! Exporting the simulated frames from the editor, on a thread of its own:
+//! the bake folder (OBJ sequence, PC2 point caches, summary) and PNG frames
+//! rendered offscreen.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, channel};
+
+use super::worker::Frame;
+use crate::bake::FrameRecord;
+use crate::bake::output::BakeFolder;
+use crate::bake::summary::BakeSummary;
+use crate::render::{Gpu, LightRig};
+use crate::scene::Scene;
+use crate::stage::offscreen::{OffscreenStage, write_png};
+
+/// What to export.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExportKind {
+    /// OBJ sequence, PC2 point caches and summary.json (as `drape bake` writes).
+    Geometry,
+    /// PNG frames of the viewport's light rig, `frame_NNNN.png`.
+    Images {
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+    },
+}
+
+/// News from an export in progress.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExportEvent {
+    /// Frames written so far, of the total.
+    Progress(usize, usize),
+    /// Every frame is written.
+    Done(PathBuf),
+    /// It stopped; what is written is whole.
+    Failed(String),
+}
+
+/// An export running on its own thread.
+pub struct ExportJob {
+    /// Its news, in order.
+    pub events: Receiver<ExportEvent>,
+    cancel: Arc<AtomicBool>,
+}
+
+impl ExportJob {
+    /// Starts writing `frames` of `scene` into `dir`.
+    pub fn start(kind: ExportKind, scene: Scene, frames: Vec<Frame>, rig: LightRig, dir: PathBuf) -> ExportJob {
+        let (sender, events) = channel();
+        let cancel = Arc::new(AtomicBool::new(false));
+        let stop = cancel.clone();
+        std::thread::spawn(move || {
+            let progress = |done| {
+                let _ = sender.send(ExportEvent::Progress(done, frames.len()));
+            };
+            let result = match kind {
+                ExportKind::Geometry => write_geometry(&scene, &frames, &dir, &stop, progress),
+                ExportKind::Images { width, height } => {
+                    write_images(&scene, &frames, rig, (width, height), &dir, &stop, progress)
+                }
+            };
+            let _ = sender.send(match result {
+                Ok(()) if stop.load(Ordering::Relaxed) => ExportEvent::Failed("cancelled".into()),
+                Ok(()) => ExportEvent::Done(dir),
+                Err(message) => ExportEvent::Failed(message),
+            });
+        });
+        ExportJob { events, cancel }
+    }
+
+    /// Stops after the frame being written.
+    pub fn cancel(&self) {
+        self.cancel.store(true, Ordering::Relaxed);
+    }
+}
+
+fn write_geometry(
+    scene: &Scene,
+    frames: &[Frame],
+    dir: &Path,
+    stop: &AtomicBool,
+    progress: impl Fn(usize),
+) -> Result<(), String> {
+    let mut folder = BakeFolder::create(dir, scene).map_err(|e| e.to_string())?;
+    for (k, frame) in frames.iter().enumerate() {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(());
+        }
+        let time_s = k as f64 / scene.fps;
+        folder.write_frame(k, time_s, &frame.positions).map_err(|e| e.to_string())?;
+        progress(k + 1);
+    }
+    let records: Vec<FrameRecord> = frames.iter().skip(1).map(|f| f.record.clone()).collect();
+    let summary = BakeSummary::new(scene, &records, scene.frame_count, None);
+    folder.finish(&summary).map_err(|e| e.to_string())
+}
+
+fn write_images(
+    scene: &Scene,
+    frames: &[Frame],
+    rig: LightRig,
+    (width, height): (u32, u32),
+    dir: &Path,
+    stop: &AtomicBool,
+    progress: impl Fn(usize),
+) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let gpu = Gpu::headless().map_err(|e| e.to_string())?;
+    let mut stage = OffscreenStage::new(&gpu, scene, width, height, rig).map_err(|e| e.to_string())?;
+    for (k, frame) in frames.iter().enumerate() {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(());
+        }
+        let image = stage.render(&frame.positions, k as f64 / scene.fps).map_err(|e| e.to_string())?;
+        write_png(&dir.join(format!("frame_{k:04}.png")), &image).map_err(|e| e.to_string())?;
+        progress(k + 1);
+    }
+    Ok(())
+}

@@ -1,0 +1,454 @@
+//! The editor's layout: toolbar, the scene / fabric / collision / lights /
+//! export panels (PAPER Fig. 10), the timeline, the viewport with its
+//! statistics overlay, messages, and the unsaved-changes question.
+
+use std::path::PathBuf;
+
+use egui::{Align2, Color32, PointerButton, Rect, Sense, Ui, Vec2, pos2};
+
+use super::editor::{Editor, Quality, RunState};
+use super::export::ExportKind;
+use super::fabric_panel;
+use super::stats::overlay_lines;
+use crate::render::OrbitCamera;
+use crate::scene::preset::Preset;
+
+/// The framing used for mouse control before the viewport has framed the scene.
+const FALLBACK_CAMERA: OrbitCamera =
+    OrbitCamera { target: glam::Vec3::ZERO, yaw_deg: 30.0, pitch_deg: 20.0, distance_m: 3.0, fov_y_deg: 27.0 };
+
+/// Draws the whole editor into `ui`. `viewport` is the texture the 3D view
+/// was rendered into (none without a GPU). Returns the viewport's size in
+/// physical pixels, for the next render.
+pub fn editor_ui(ui: &mut Ui, editor: &mut Editor, viewport: Option<egui::TextureId>) -> [u32; 2] {
+    egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, editor));
+    egui::Panel::bottom("timeline").show(ui, |ui| timeline(ui, editor));
+    egui::Panel::left("controls").resizable(true).default_size(340.0).show(ui, |ui| {
+        egui::ScrollArea::vertical().show(ui, |ui| controls(ui, editor));
+    });
+    let size = egui::CentralPanel::no_frame().show(ui, |ui| viewport_ui(ui, editor, viewport)).inner;
+    messages(ui.ctx(), editor);
+    quit_question(ui.ctx(), editor);
+    size
+}
+
+fn toolbar(ui: &mut Ui, editor: &mut Editor) {
+    ui.horizontal(|ui| {
+        let idle = editor.run == RunState::Idle;
+        if idle {
+            if ui.button("Simulate").on_hover_text("Run live from the current frame; tune while it runs").clicked() {
+                editor.simulate();
+            }
+        } else if ui.button("Pause").on_hover_text("Stop after the frame in progress").clicked() {
+            editor.pause();
+        }
+        if ui
+            .add_enabled(idle, egui::Button::new("Bake"))
+            .on_hover_text("Simulate every frame from the start")
+            .clicked()
+        {
+            editor.bake();
+        }
+        if ui.button("Reset").on_hover_text("Back to frame 0 with the current parameters").clicked() {
+            editor.reset();
+        }
+        ui.separator();
+        let mut quality = editor.quality;
+        egui::ComboBox::from_label("Quality").selected_text(quality.label()).show_ui(ui, |ui| {
+            for q in Quality::ALL {
+                ui.selectable_value(&mut quality, q, q.label());
+            }
+        });
+        if quality != editor.quality {
+            editor.set_quality(quality);
+        }
+        ui.label(format!("{} steps/frame", editor.scene.steps_per_frame));
+        ui.separator();
+        light_menu(ui, editor);
+        ui.separator();
+        if editor.is_loading() {
+            ui.spinner();
+            ui.label("loading…");
+        }
+        let title = format!("{}{}", editor.scene.name, if editor.dirty { " •" } else { "" });
+        ui.label(title).on_hover_text("• marks unsaved changes");
+    });
+}
+
+fn light_menu(ui: &mut Ui, editor: &mut Editor) {
+    let mut rig = editor.rig;
+    egui::ComboBox::from_label("Light").selected_text(editor.light_rig().name.clone()).show_ui(ui, |ui| {
+        for (k, r) in editor.rigs.iter().enumerate() {
+            ui.selectable_value(&mut rig, k, r.name.as_str());
+        }
+    });
+    editor.rig = rig;
+}
+
+fn controls(ui: &mut Ui, editor: &mut Editor) {
+    egui::CollapsingHeader::new("Scene").default_open(true).show(ui, |ui| scene_panel(ui, editor));
+    egui::CollapsingHeader::new("Fabric").default_open(true).show(ui, |ui| fabric(ui, editor));
+    egui::CollapsingHeader::new("Collision").default_open(false).show(ui, |ui| collision(ui, editor));
+    egui::CollapsingHeader::new("Camera").default_open(false).show(ui, |ui| camera(ui, editor));
+    egui::CollapsingHeader::new("Export").default_open(true).show(ui, |ui| export(ui, editor));
+}
+
+/// A labelled path field with a button; returns the path when pressed.
+fn path_row(ui: &mut Ui, label: &str, value: &mut String, button: &str, hint: &str) -> Option<PathBuf> {
+    let mut chosen = None;
+    ui.horizontal(|ui| {
+        let name = ui.label(label);
+        let field = ui.add(egui::TextEdit::singleline(value).desired_width(170.0).hint_text(hint)).labelled_by(name.id);
+        let entered = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        if ui.button(button).clicked() || entered {
+            chosen = Some(PathBuf::from(value.trim()));
+        }
+    });
+    chosen.filter(|p| !p.as_os_str().is_empty())
+}
+
+fn scene_panel(ui: &mut Ui, editor: &mut Editor) {
+    let hint = "path/to/scene.toml";
+    if let Some(path) = path_row(ui, "Scene", &mut editor.paths.scene, "Open", hint) {
+        editor.open_scene(path);
+    }
+    ui.horizontal(|ui| {
+        if ui.button("Save").on_hover_text("Write the scene file with every current setting").clicked() {
+            let path = PathBuf::from(editor.paths.scene.trim());
+            editor.save_scene(&path);
+        }
+        ui.label(format!("{} frames at {} fps", editor.scene.frame_count, editor.scene.fps));
+    });
+    ui.separator();
+    garment_fields(ui, editor);
+    ui.separator();
+    body_fields(ui, editor);
+    ui.label("Drop an OBJ, FBX, .motion or scene file on the window to use it.");
+}
+
+fn garment_fields(ui: &mut Ui, editor: &mut Editor) {
+    let names: Vec<String> = editor.scene.garments.iter().map(|g| g.name.clone()).collect();
+    let mut chosen = editor.garment;
+    egui::ComboBox::from_label("Garment").selected_text(names.get(chosen).cloned().unwrap_or_default()).show_ui(
+        ui,
+        |ui| {
+            for (k, name) in names.iter().enumerate() {
+                ui.selectable_value(&mut chosen, k, name.as_str());
+            }
+        },
+    );
+    if chosen != editor.garment {
+        editor.garment = chosen;
+        editor.paths.garment = match editor.scene.file.garments.get(chosen).map(|g| &g.mesh) {
+            Some(crate::scene::file::MeshSpec::Obj(obj)) => obj.display().to_string(),
+            _ => String::new(),
+        };
+    }
+    let g = editor.garment;
+    if let Some(path) = path_row(ui, "OBJ", &mut editor.paths.garment, "Load OBJ", "garment.obj") {
+        editor.edit_scene(|file| {
+            if let Some(spec) = file.garments.get_mut(g) {
+                spec.mesh = crate::scene::file::MeshSpec::Obj(path);
+            }
+        });
+    }
+    let Some(spec) = editor.scene.file.garments.get(g) else { return };
+    let (mut translation, mut rotation, mut scale) = (spec.translation_m, spec.rotation_deg, spec.scale);
+    let mut changed = false;
+    egui::Grid::new("garment transform").num_columns(2).show(ui, |ui| {
+        ui.label("Move (m)").on_hover_text("Translation of the garment relative to the body, metres");
+        changed |= vector_fields(ui, &mut translation, 0.005);
+        ui.end_row();
+        ui.label("Rotate (°)").on_hover_text("Rotation about X, Y, Z, degrees");
+        changed |= vector_fields(ui, &mut rotation, 0.5);
+        ui.end_row();
+        let label = ui.label("Scale").on_hover_text("Uniform scale factor");
+        changed |=
+            ui.add(egui::DragValue::new(&mut scale).speed(0.005).range(0.01..=100.0)).labelled_by(label.id).changed();
+        ui.end_row();
+    });
+    if changed {
+        editor.edit_scene(|file| {
+            if let Some(spec) = file.garments.get_mut(g) {
+                (spec.translation_m, spec.rotation_deg, spec.scale) = (translation, rotation, scale);
+            }
+        });
+    }
+}
+
+/// X, Y and Z fields of a vector; true when one changed.
+fn vector_fields(ui: &mut Ui, v: &mut [f64; 3], speed: f64) -> bool {
+    ui.horizontal(|ui| {
+        let mut changed = false;
+        for (c, axis) in v.iter_mut().zip(["X", "Y", "Z"]) {
+            let label = ui.label(axis);
+            changed |= ui.add(egui::DragValue::new(c).speed(speed)).labelled_by(label.id).changed();
+        }
+        changed
+    })
+    .inner
+}
+
+fn body_fields(ui: &mut Ui, editor: &mut Editor) {
+    if editor.scene.file.bodies.is_empty() {
+        ui.label("No body in this scene.");
+        return;
+    }
+    if let Some(path) = path_row(ui, "Body", &mut editor.paths.body, "Load body", "body.fbx or walk.motion") {
+        editor.edit_scene(|file| {
+            if let Some(body) = file.bodies.first_mut() {
+                body.file = path;
+            }
+        });
+    }
+    let hint = "other.fbx (bones matched by name)";
+    if let Some(path) = path_row(ui, "Motion", &mut editor.paths.motion, "Use motion", hint) {
+        editor.edit_scene(|file| {
+            if let Some(body) = file.bodies.first_mut() {
+                body.motion = Some(path);
+            }
+        });
+    }
+}
+
+fn fabric(ui: &mut Ui, editor: &mut Editor) {
+    let g = editor.garment;
+    let current = editor.scene.file.garments.get(g).map(|s| s.preset.clone()).unwrap_or_default();
+    let mut preset = None;
+    egui::ComboBox::from_label("Preset").selected_text(current.as_str()).show_ui(ui, |ui| {
+        for name in Preset::builtin_names() {
+            if ui.selectable_label(current == name, name).clicked() {
+                preset = Some(name.to_owned());
+            }
+        }
+    });
+    if let Some(name) = preset {
+        editor.choose_preset(&name);
+    }
+    if let Some(garment) = editor.scene.garments.get(g) {
+        ui.label(egui::RichText::new(&garment.preset.about.feel).italics());
+    }
+    if let Some(path) = path_row(ui, "File", &mut editor.paths.fabric, "Load preset", "fabric.toml") {
+        editor.choose_preset(&path.display().to_string());
+    }
+    if ui.button("Save parameters").on_hover_text("Write these parameters as a preset file (the path above)").clicked()
+    {
+        let path = PathBuf::from(editor.paths.fabric.trim());
+        if path.as_os_str().is_empty() {
+            editor.tell("type a file name for the parameters first", true);
+        } else {
+            editor.save_fabric(&path);
+        }
+    }
+    let Some(garment) = editor.scene.garments.get_mut(g) else { return };
+    if fabric_panel::sliders(ui, &mut garment.fabric) {
+        editor.fabric_changed();
+    }
+}
+
+fn collision(ui: &mut Ui, editor: &mut Editor) {
+    ui.label("Thickness and friction are in the fabric panel (live). These restart the simulation:");
+    let mut settings = editor.scene.file.collision.clone();
+    let g = editor.garment;
+    let mut self_collision = editor.scene.file.garments.get(g).is_some_and(|s| s.self_collision);
+    let mut changed = false;
+    changed |=
+        ui.checkbox(&mut self_collision, "Self-collision").on_hover_text("Keep the garment out of itself").changed();
+    egui::Grid::new("collision settings").num_columns(2).show(ui, |ui| {
+        let mut row = |ui: &mut Ui, name: &str, tip: &str, widget: &mut dyn FnMut(&mut Ui) -> egui::Response| {
+            let label = ui.label(name).on_hover_text(tip);
+            changed |= widget(ui).labelled_by(label.id).changed();
+            ui.end_row();
+        };
+        let tip = "Detect → respond passes per step before impact zones take over";
+        row(ui, "Passes", tip, &mut |ui| ui.add(egui::DragValue::new(&mut settings.passes).range(1..=50)));
+        let tip = "How fast a contact's influence fades when it is not seen again (eq. 16)";
+        row(ui, "Influence decay", tip, &mut |ui| {
+            ui.add(egui::Slider::new(&mut settings.influence_decay, 0.05..=0.95))
+        });
+        let tip = "Influence at which contacts are solved together (semi-global constraints)";
+        row(ui, "Influence threshold", tip, &mut |ui| {
+            ui.add(egui::Slider::new(&mut settings.influence_threshold, 0.5..=10.0))
+        });
+        let tip = "Rounds of rigid impact zones before a step gives up";
+        row(ui, "Impact-zone rounds", tip, &mut |ui| {
+            ui.add(egui::DragValue::new(&mut settings.zone_rounds).range(1..=200))
+        });
+    });
+    if changed {
+        editor.edit_scene(move |file| {
+            file.collision = settings;
+            if let Some(spec) = file.garments.get_mut(g) {
+                spec.self_collision = self_collision;
+            }
+        });
+    }
+}
+
+fn camera(ui: &mut Ui, editor: &mut Editor) {
+    if ui.button("Frame all").on_hover_text("Back to the scene's framing").clicked() {
+        editor.camera.frame_all();
+    }
+    let mut turntable = editor.camera.turntable_period_s.is_some();
+    if ui.checkbox(&mut turntable, "Turntable").changed() {
+        editor.camera.turntable_period_s = turntable.then_some(8.0);
+    }
+    if let Some(period) = &mut editor.camera.turntable_period_s {
+        ui.add(egui::Slider::new(period, 2.0..=60.0).text("s per turn"));
+    }
+    ui.label("Left drag: orbit · right or middle drag: pan · wheel: zoom");
+}
+
+fn export(ui: &mut Ui, editor: &mut Editor) {
+    ui.horizontal(|ui| {
+        let name = ui.label("Folder");
+        ui.add(egui::TextEdit::singleline(&mut editor.paths.export).desired_width(200.0)).labelled_by(name.id);
+    });
+    ui.horizontal(|ui| {
+        let free = editor.export.is_none();
+        if ui.add_enabled(free, egui::Button::new("OBJ + PC2")).on_hover_text("OBJ sequence and point caches").clicked()
+        {
+            editor.export(ExportKind::Geometry);
+        }
+        if ui.add_enabled(free, egui::Button::new("PNG frames")).on_hover_text("1280×720, the current light").clicked()
+        {
+            editor.export(ExportKind::Images { width: 1280, height: 720 });
+        }
+    });
+    let mut cancel = false;
+    if let Some((_, done, total)) = &editor.export {
+        ui.horizontal(|ui| {
+            let fraction = *done as f32 / (*total).max(1) as f32;
+            ui.add(egui::ProgressBar::new(fraction).text(format!("export {done}/{total}")).desired_width(200.0));
+            cancel = ui.button("Cancel").clicked();
+        });
+    }
+    if cancel {
+        editor.cancel_export();
+    }
+}
+
+fn timeline(ui: &mut Ui, editor: &mut Editor) {
+    ui.horizontal(|ui| {
+        let t = &mut editor.timeline;
+        let label = if t.playing { "Pause" } else { "Play" };
+        if ui.button(label).on_hover_text("Play the simulated frames").clicked() {
+            t.playing = !t.playing;
+        }
+        if ui.button("<").on_hover_text("Previous frame").clicked() {
+            t.step(-1);
+        }
+        if ui.button(">").on_hover_text("Next frame").clicked() {
+            t.step(1);
+        }
+        ui.checkbox(&mut t.looping, "Loop");
+        ui.add(egui::Slider::new(&mut t.speed, 0.1..=4.0).logarithmic(true).text("× speed"));
+        let mut frame = t.current();
+        let last = t.last().max(1);
+        let scrub = egui::Slider::new(&mut frame, 0..=last).text(format!("/ {} frames", t.range));
+        if ui.add_sized([ui.available_width() - 20.0, 20.0], scrub).changed() {
+            t.seek(frame);
+        }
+    });
+    if let RunState::Baking { done, total, .. } = editor.run {
+        ui.horizontal(|ui| {
+            let left = editor.bake_time_left_s().map_or(String::new(), |s| format!(", {s:.0} s left"));
+            let text = format!("bake {done}/{total}{left}");
+            ui.add(egui::ProgressBar::new(done as f32 / total.max(1) as f32).text(text).desired_width(400.0));
+            if ui.button("Cancel").clicked() {
+                editor.pause();
+            }
+        });
+    }
+}
+
+fn viewport_ui(ui: &mut Ui, editor: &mut Editor, texture: Option<egui::TextureId>) -> [u32; 2] {
+    let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
+    let painter = ui.painter_at(rect);
+    match texture {
+        Some(id) => {
+            painter.image(id, rect, Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0)), Color32::WHITE);
+        }
+        None => {
+            painter.rect_filled(rect, 0.0, Color32::from_gray(40));
+        }
+    }
+    let framed = editor.framed.unwrap_or(FALLBACK_CAMERA);
+    let delta = response.drag_delta();
+    if response.dragged_by(PointerButton::Primary) {
+        editor.camera.orbit(framed, delta.x, delta.y);
+    } else if response.dragged_by(PointerButton::Secondary) || response.dragged_by(PointerButton::Middle) {
+        editor.camera.pan(framed, delta.x, delta.y, rect.height());
+    }
+    if response.hovered() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if scroll != 0.0 {
+            editor.camera.zoom(framed, scroll);
+        }
+    }
+    if response.double_clicked() {
+        editor.camera.frame_all();
+    }
+    if let Some(frame) = editor.timeline.shown() {
+        let text = overlay_lines(&frame.record).join("\n");
+        let font = egui::FontId::monospace(12.0);
+        let galley = painter.layout_no_wrap(text, font, Color32::from_gray(235));
+        let at = rect.min + Vec2::splat(8.0);
+        painter.rect_filled(Rect::from_min_size(at, galley.size()).expand(4.0), 3.0, Color32::from_black_alpha(150));
+        painter.galley(at, galley, Color32::WHITE);
+    }
+    let pixels = rect.size() * ui.ctx().pixels_per_point();
+    [pixels.x.round().max(1.0) as u32, pixels.y.round().max(1.0) as u32]
+}
+
+fn messages(ctx: &egui::Context, editor: &mut Editor) {
+    if editor.messages.is_empty() {
+        return;
+    }
+    let mut dismissed = None;
+    egui::Area::new(egui::Id::unique("messages")).anchor(Align2::RIGHT_BOTTOM, Vec2::new(-12.0, -60.0)).show(
+        ctx,
+        |ui| {
+            for (k, message) in editor.messages.iter().enumerate() {
+                let fill = if message.error { Color32::from_rgb(110, 30, 30) } else { Color32::from_rgb(30, 60, 40) };
+                egui::Frame::popup(ui.style()).fill(fill).show(ui, |ui| {
+                    ui.set_max_width(420.0);
+                    ui.horizontal(|ui| {
+                        ui.label(egui::RichText::new(&message.text).color(Color32::WHITE));
+                        if message.error && ui.small_button("Dismiss").on_hover_text("Dismiss").clicked() {
+                            dismissed = Some(k);
+                        }
+                    });
+                });
+            }
+        },
+    );
+    if let Some(k) = dismissed {
+        editor.messages.remove(k);
+    }
+}
+
+fn quit_question(ctx: &egui::Context, editor: &mut Editor) {
+    if !editor.confirm_quit {
+        return;
+    }
+    egui::Modal::new(egui::Id::unique("unsaved")).show(ctx, |ui| {
+        ui.heading("Unsaved changes");
+        ui.label(format!("Save the changes to '{}' before quitting?", editor.scene.name));
+        ui.horizontal(|ui| {
+            if ui.button("Save and quit").clicked() {
+                let path = PathBuf::from(editor.paths.scene.trim());
+                editor.save_scene(&path);
+                editor.quit = !editor.dirty;
+                editor.confirm_quit = false;
+            }
+            if ui.button("Discard").clicked() {
+                editor.quit = true;
+                editor.confirm_quit = false;
+            }
+            if ui.button("Cancel").clicked() {
+                editor.confirm_quit = false;
+            }
+        });
+    });
+}

@@ -1,0 +1,71 @@
+//! The viewport's statistics overlay: what the last simulated frame cost and
+//! how good it is.
+
+use crate::bake::FrameRecord;
+
+/// The overlay's lines for the frame `record` (frame 0, the initial state,
+/// has only the checker's count).
+pub fn overlay_lines(record: &FrameRecord) -> Vec<String> {
+    let mut lines = Vec::new();
+    let total_ms = record.timings.total().as_secs_f64() * 1e3;
+    if record.frame > 0 && record.steps > 0 {
+        let steps_per_s = if total_ms > 0.0 { f64::from(record.steps) * 1e3 / total_ms } else { 0.0 };
+        lines.push(format!(
+            "frame {}  {:.1} ms  ({} steps, {:.1} ms/step, {:.0} steps/s)",
+            record.frame,
+            total_ms,
+            record.steps,
+            total_ms / f64::from(record.steps),
+            steps_per_s
+        ));
+        let mut stages: Vec<_> = record.timings.stages().into_iter().filter(|(_, d)| !d.is_zero()).collect();
+        stages.sort_by_key(|&(_, d)| std::cmp::Reverse(d));
+        let shown: Vec<String> =
+            stages.iter().take(4).map(|(name, d)| format!("{name} {:.1}", d.as_secs_f64() * 1e3)).collect();
+        lines.push(format!("stages ms: {}", shown.join(", ")));
+        lines.push(format!(
+            "CG {:.1} it/step  contacts {} particle, {} triangle",
+            f64::from(record.cg_iterations) / f64::from(record.steps),
+            record.contacts,
+            record.triangle_contacts
+        ));
+        lines.push(format!("strain max {:.2} %  mean {:.2} %", record.max_strain * 100.0, record.mean_strain * 100.0));
+        if record.rollbacks > 0 {
+            lines.push(format!("{} steps rolled back and halved", record.rollbacks));
+        }
+    } else {
+        lines.push(format!("frame {} (initial state)", record.frame));
+    }
+    let i = &record.intersections;
+    lines.push(format!(
+        "intersections {} (cloth-cloth {}, cloth-body {}), vertices inside {}",
+        i.pairs(),
+        i.cloth_pairs,
+        i.collider_pairs,
+        i.penetrating_vertices
+    ));
+    lines
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::metrics::intersections::Intersections;
+
+    #[test]
+    fn overlay_reports_time_per_step_strain_and_the_checkers_count() {
+        let mut record =
+            FrameRecord { frame: 7, steps: 4, cg_iterations: 40, max_strain: 0.0123, ..Default::default() };
+        record.timings.solve = Duration::from_millis(30);
+        record.timings.narrow = Duration::from_millis(10);
+        record.intersections = Intersections { cloth_pairs: 2, collider_pairs: 1, penetrating_vertices: 0 };
+        let lines = overlay_lines(&record);
+        assert!(lines[0].contains("40.0 ms") && lines[0].contains("10.0 ms/step") && lines[0].contains("100 steps/s"));
+        assert!(lines[1].starts_with("stages ms: solve 30.0, narrow 10.0"), "{}", lines[1]);
+        assert!(lines[2].contains("10.0 it/step"));
+        assert!(lines[3].contains("1.23 %"));
+        assert!(lines.last().unwrap().starts_with("intersections 3 (cloth-cloth 2, cloth-body 1)"));
+    }
+}

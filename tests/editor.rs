@@ -1,0 +1,186 @@
+//! The editor driven through its UI by the labels a user reads (egui_kittest
+//! over AccessKit): live tuning reaches the simulation worker, presets fill
+//! every slider, Bake fills the timeline, the light switch changes the
+//! viewport image, a bad garment file is refused with the previous scene kept.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use drape::app::Editor;
+use drape::app::editor::RunState;
+use drape::app::fabric_panel::PARAMETERS;
+use drape::app::panels::editor_ui;
+use drape::app::viewport::Viewport;
+use drape::render::Gpu;
+use drape::scene::Scene;
+use drape::scene::preset::Preset;
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::{NodeT, Queryable};
+
+/// A small cloth over a sphere: bakes in seconds.
+const SMALL_SCENE: &str = r#"
+[time]
+fps = 30.0
+duration_s = 0.5
+[solver]
+steps_per_frame = 2
+[[garment]]
+name = "cloth"
+preset = "cotton"
+mesh = { grid = { size_m = 0.8, resolution = 24 } }
+translation_m = [0.0, 0.7, 0.0]
+self_collision = true
+[[collider]]
+name = "ball"
+shape = { sphere = { radius_m = 0.25 } }
+position_m = [0.0, 0.4, 0.0]
+[[collider]]
+name = "ground"
+shape = "plane"
+"#;
+
+fn small_scene(dir: &Path) -> Scene {
+    let path = dir.join("small.toml");
+    std::fs::write(&path, SMALL_SCENE).unwrap();
+    Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn harness(editor: Editor) -> Harness<'static, Editor> {
+    Harness::builder().with_size(egui::Vec2::new(1400.0, 1000.0)).build_ui_state(
+        |ui, editor: &mut Editor| {
+            editor.update(0.0);
+            editor_ui(ui, editor, None);
+        },
+        editor,
+    )
+}
+
+/// Lets the worker report until `done` holds (or fails after a minute).
+fn wait_until(harness: &mut Harness<'_, Editor>, what: &str, done: impl Fn(&Editor) -> bool) {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while !done(harness.state()) {
+        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        harness.state_mut().wait_for_worker(Duration::from_millis(200));
+    }
+    // Let the layout settle (panels change size when a run ends).
+    harness.run_steps(3);
+}
+
+fn slider_value(harness: &Harness<'_, Editor>, label: &str) -> f64 {
+    let node = harness.get_by_role_and_label(Role::Slider, label);
+    node.accesskit_node().numeric_value().unwrap_or_else(|| panic!("slider '{label}' has no value"))
+}
+
+#[test]
+fn moving_the_stretch_slider_changes_the_workers_fabric() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    assert_eq!(h.state().simulated_fabrics[0].stretch_stiffness_n_per_m, 1500.0, "cotton");
+    h.get_by_role_and_label(Role::Slider, "Stretch stiffness").set_value_accesskit(3000.0);
+    h.run_steps(2);
+    assert_eq!(h.state().scene.garments[0].fabric.stretch_stiffness_n_per_m, 3000.0);
+    wait_until(&mut h, "the worker to take the new stiffness", |e| {
+        e.simulated_fabrics[0].stretch_stiffness_n_per_m == 3000.0
+    });
+    assert!(h.state().dirty, "an edit marks the scene unsaved");
+}
+
+#[test]
+fn choosing_a_preset_sets_every_slider_to_its_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::ComboBox, "Preset").click();
+    h.run_steps(2);
+    h.get_by_label("denim").click();
+    h.run_steps(3);
+    let mut denim = Preset::builtin("denim").unwrap().fabric;
+    assert_eq!(h.state().scene.garments[0].fabric, denim);
+    for p in &PARAMETERS {
+        let expected = *(p.value)(&mut denim);
+        let shown = slider_value(&h, p.label);
+        assert!((shown - expected).abs() <= 1e-9 * expected.abs(), "{}: slider {shown}, denim {expected}", p.label);
+    }
+    wait_until(&mut h, "the worker to take denim", |e| e.simulated_fabrics[0] == e.scene.garments[0].fabric);
+}
+
+#[test]
+fn bake_reaches_every_frame_and_the_timeline_scrubs_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    let frames = h.state().scene.frame_count;
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    assert!(matches!(h.state().run, RunState::Baking { .. }));
+    wait_until(&mut h, "the bake", |e| e.run == RunState::Idle);
+    let editor = h.state();
+    assert_eq!(editor.bake_progress, Some((frames, frames)), "progress reached 100 %");
+    assert_eq!(editor.timeline.len(), frames + 1, "frame 0 and every baked frame");
+    let last = editor.timeline.newest().unwrap();
+    assert_eq!(last.record.intersections.pairs(), 0);
+    let lowest = last.positions.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+    assert!(lowest < 0.6, "the cloth fell from 0.7 m onto the ball: lowest {lowest} m");
+    assert!(editor.messages.iter().any(|m| m.text.contains(&format!("baked {frames} frames"))));
+    h.get_by_label("<").click();
+    h.run_steps(2);
+    assert_eq!(h.state().timeline.current(), frames - 1, "stepped back one frame");
+}
+
+#[test]
+fn switching_the_light_changes_the_viewport_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let gpu = Gpu::headless().unwrap_or_else(|e| panic!("{e}"));
+    let mut ui_renderer =
+        egui_wgpu::Renderer::new(&gpu.device, wgpu::TextureFormat::Rgba8Unorm, egui_wgpu::RendererOptions::default());
+    let mut viewport = Viewport::new(&gpu);
+    viewport.resolution_scale = 1.0;
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    wait_until(&mut h, "frame 0", |e| !e.timeline.is_empty());
+    let mut render = |h: &mut Harness<'_, Editor>| {
+        viewport.render(h.state_mut(), [240, 160], &mut ui_renderer);
+        viewport.image().unwrap().unwrap()
+    };
+    let studio = render(&mut h);
+    h.get_by_role_and_label(Role::ComboBox, "Light").click();
+    h.run_steps(2);
+    h.get_by_label("evening").click();
+    h.run_steps(2);
+    assert_eq!(h.state().light_rig().name, "evening");
+    let evening = render(&mut h);
+    let luminance = |image: &image::RgbaImage| {
+        image
+            .pixels()
+            .map(|p| 0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2]))
+            .sum::<f64>()
+            / f64::from(image.width() * image.height())
+    };
+    let (a, b) = (luminance(&studio), luminance(&evening));
+    assert!(a > 5.0 && b > 5.0, "neither image is black: {a}, {b}");
+    assert!((a - b).abs() > 2.0, "mean luminance moved: studio {a:.1}, evening {b:.1}");
+}
+
+#[test]
+fn a_malformed_garment_obj_is_reported_and_the_scene_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad: PathBuf = dir.path().join("broken.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 0\nf 1 2 3\n").unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    let vertices = h.state().scene.garments[0].mesh.vertex_count();
+    let generation = h.state().generation;
+    h.get_by_role_and_label(Role::TextInput, "OBJ").set_text_value_accesskit(&bad.display().to_string());
+    h.run_steps(2);
+    h.get_by_label("Load OBJ").click();
+    h.run_steps(2);
+    h.state_mut().finish_loading();
+    h.run_steps(3);
+    let editor = h.state();
+    assert_eq!(editor.scene.garments[0].mesh.vertex_count(), vertices, "the previous garment stays");
+    assert_eq!(editor.generation, generation, "nothing was redrawn");
+    let error = editor.messages.iter().find(|m| m.error).expect("an error is shown");
+    assert!(error.text.contains("broken.obj"), "names the file: {}", error.text);
+    h.get_by_label_contains("broken.obj");
+}
