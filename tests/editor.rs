@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use drape::app::Editor;
+use drape::bake;
 use drape::app::editor::RunState;
 use drape::app::fabric_panel::PARAMETERS;
 use drape::app::panels::editor_ui;
@@ -183,4 +184,57 @@ fn a_malformed_garment_obj_is_reported_and_the_scene_kept() {
     let error = editor.messages.iter().find(|m| m.error).expect("an error is shown");
     assert!(error.text.contains("broken.obj"), "names the file: {}", error.text);
     h.get_by_label_contains("broken.obj");
+}
+
+/// Lets exports report until none is running.
+fn wait_for_export(harness: &mut Harness<'_, Editor>) {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while harness.state().export.is_some() {
+        assert!(Instant::now() < deadline, "timed out waiting for the export");
+        std::thread::sleep(Duration::from_millis(20));
+        harness.state_mut().update(0.0);
+    }
+    harness.run_steps(3);
+}
+
+#[test]
+fn a_saved_scene_reopens_to_the_same_bake_and_the_export_holds_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::ComboBox, "Quality").click();
+    h.run_steps(2);
+    h.get_by_label("Final").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::Slider, "Bend stiffness").set_value_accesskit(4e-5);
+    h.run_steps(2);
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the bake", |e| e.run == RunState::Idle);
+
+    let out = dir.path().join("export");
+    h.get_by_role_and_label(Role::TextInput, "Folder").set_text_value_accesskit(&out.display().to_string());
+    h.run_steps(2);
+    h.get_by_label("OBJ + PC2").click();
+    h.run_steps(2);
+    wait_for_export(&mut h);
+    let frames = h.state().scene.frame_count;
+    assert!(out.join(format!("frame_{frames:04}.obj")).is_file() && out.join("cloth.pc2").is_file());
+    assert!(h.state().messages.iter().any(|m| m.text.starts_with("exported to")));
+
+    h.get_by_label("Save").click();
+    h.run_steps(2);
+    assert!(!h.state().dirty, "saved");
+    let reopened = Scene::load(&dir.path().join("small.toml")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(reopened.garments[0].fabric.bend_stiffness_n_m, 4e-5);
+    assert_eq!(reopened.steps_per_frame, 4, "Final quality: twice the scene's 2 steps");
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let mut last = Vec::new();
+    bake::run(&reopened, frames, &cancel, |sim, _| {
+        last = sim.positions().to_vec();
+        Ok(())
+    })
+    .unwrap();
+    let editor_last = h.state().timeline.newest().unwrap().positions.clone();
+    assert_eq!(*editor_last, last, "the reopened scene bakes to the editor's frames, bit for bit");
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use winit::application::ApplicationHandler;
-use winit::event::WindowEvent;
+use winit::event::{StartCause, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop, OwnedDisplayHandle};
 use winit::window::{Window, WindowId};
 
@@ -19,6 +19,9 @@ use crate::render::Gpu;
 use crate::render::target::read_texture;
 use crate::scene::Scene;
 use crate::stage::offscreen::write_png;
+
+/// Redraws per second while the simulation runs or the timeline plays.
+const ANIMATION_HZ: f64 = 30.0;
 
 /// A window image to take, then close (smoke tests, documentation).
 #[derive(Clone, Debug)]
@@ -115,8 +118,21 @@ impl ApplicationHandler for App {
         }
     }
 
-    fn about_to_wait(&mut self, _: &ActiveEventLoop) {
-        if let Some(open) = self.open.as_ref().filter(|o| o.editor.is_animating() || self.screenshot.is_some()) {
+    /// While something moves by itself, wake up at most [`ANIMATION_HZ`] times
+    /// a second to redraw: a busy redraw loop would take a core from the
+    /// simulation (and lavapipe draws on the CPU).
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        let animating = self.open.as_ref().is_some_and(|o| o.editor.is_animating()) || self.screenshot.is_some();
+        if animating {
+            let next = Instant::now() + std::time::Duration::from_secs_f64(1.0 / ANIMATION_HZ);
+            event_loop.set_control_flow(ControlFlow::WaitUntil(next));
+        } else {
+            event_loop.set_control_flow(ControlFlow::Wait);
+        }
+    }
+
+    fn new_events(&mut self, _: &ActiveEventLoop, cause: StartCause) {
+        if let (StartCause::ResumeTimeReached { .. }, Some(open)) = (cause, &self.open) {
             open.window.request_redraw();
         }
     }
