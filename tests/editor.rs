@@ -7,11 +7,11 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use drape::app::Editor;
-use drape::bake;
 use drape::app::editor::RunState;
 use drape::app::fabric_panel::PARAMETERS;
 use drape::app::panels::editor_ui;
 use drape::app::viewport::Viewport;
+use drape::bake;
 use drape::render::Gpu;
 use drape::scene::Scene;
 use drape::scene::preset::Preset;
@@ -237,4 +237,25 @@ fn a_saved_scene_reopens_to_the_same_bake_and_the_export_holds_it() {
     .unwrap();
     let editor_last = h.state().timeline.newest().unwrap().positions.clone();
     assert_eq!(*editor_last, last, "the reopened scene bakes to the editor's frames, bit for bit");
+}
+
+#[test]
+fn quitting_with_unsaved_changes_asks_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    assert!(h.state_mut().request_quit(), "nothing to lose: the window closes");
+    h.get_by_role_and_label(Role::Slider, "Air damping").set_value_accesskit(1.0);
+    h.run_steps(2);
+    assert!(!h.state_mut().request_quit(), "unsaved changes keep the window open");
+    h.run_steps(3);
+    h.get_by_label("Unsaved changes");
+    h.get_by_label("Cancel").click();
+    h.run_steps(3);
+    assert!(!h.state().quit && h.query_by_label("Unsaved changes").is_none());
+    assert!(!h.state_mut().request_quit());
+    h.run_steps(3);
+    h.get_by_label("Discard").click();
+    h.run_steps(2);
+    assert!(h.state().quit, "discarding closes the window");
 }

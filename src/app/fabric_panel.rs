@@ -61,7 +61,7 @@ pub const PARAMETERS: [Parameter; 13] = [
         unit: "N·m",
         effect: "Flexural rigidity. Higher: fewer, larger, rounder folds (denim, leather); lower: many fine \
                  folds that cling (silk, chiffon).",
-        range: (1e-8, 1e-3),
+        range: (1e-8, 1e-2),
         logarithmic: true,
         value: |f| &mut f.bend_stiffness_n_m,
     },

@@ -85,7 +85,7 @@ mod tests {
     fn dragging_orbits_and_pitch_stops_short_of_the_pole() {
         let mut control = CameraControl::default();
         control.orbit(framed(), 100.0, 0.0);
-        assert_eq!(control.camera(framed()).yaw_deg, 0.0);
+        assert!(control.camera(framed()).yaw_deg.abs() < 1e-4, "100 px at 0.3°/px from 30°");
         control.orbit(framed(), 0.0, 10_000.0);
         assert_eq!(control.camera(framed()).pitch_deg, MAX_PITCH_DEG);
         control.frame_all();

@@ -194,6 +194,11 @@ fn body_fields(ui: &mut Ui, editor: &mut Editor) {
         ui.label("No body in this scene.");
         return;
     }
+    let mut body_only = editor.timeline.body_only;
+    let tip = "Play the body's motion alone over the whole frame range, without the cloth";
+    if ui.checkbox(&mut body_only, "Preview the motion alone").on_hover_text(tip).changed() {
+        editor.timeline.set_body_only(body_only);
+    }
     if let Some(path) = path_row(ui, "Body", &mut editor.paths.body, "Load body", "body.fbx or walk.motion") {
         editor.edit_scene(|file| {
             if let Some(body) = file.bodies.first_mut() {
@@ -344,7 +349,7 @@ fn timeline(ui: &mut Ui, editor: &mut Editor) {
         ui.checkbox(&mut t.looping, "Loop");
         ui.add(egui::Slider::new(&mut t.speed, 0.1..=4.0).logarithmic(true).text("× speed"));
         let mut frame = t.current();
-        let last = t.last().max(1);
+        let last = t.end().max(1);
         let scrub = egui::Slider::new(&mut frame, 0..=last).text(format!("/ {} frames", t.range));
         if ui.add_sized([ui.available_width() - 20.0, 20.0], scrub).changed() {
             t.seek(frame);

@@ -24,12 +24,25 @@ pub struct Timeline {
     pub looping: bool,
     /// Playback speed, times real time (0.1..4).
     pub speed: f64,
+    /// Play the body's motion alone over the whole range (PAPER Fig. 10b):
+    /// the playhead runs past the simulated frames and the cloth is hidden.
+    pub body_only: bool,
 }
 
 impl Timeline {
     /// An empty timeline for a scene of `range` frames at `fps`.
     pub fn new(fps: f64, range: usize) -> Self {
-        Timeline { frames: Vec::new(), fps, range, current: 0, phase: 0.0, playing: false, looping: true, speed: 1.0 }
+        Timeline {
+            frames: Vec::new(),
+            fps,
+            range,
+            current: 0,
+            phase: 0.0,
+            playing: false,
+            looping: true,
+            speed: 1.0,
+            body_only: false,
+        }
     }
 
     /// Drops every frame and starts again from `first` (frame 0).
@@ -43,7 +56,7 @@ impl Timeline {
     /// Appends the next simulated frame; the playhead follows it when it was
     /// on the newest frame and not playing back.
     pub fn push(&mut self, frame: Frame) {
-        let following = !self.playing && self.current + 1 == self.frames.len();
+        let following = !self.playing && !self.body_only && self.current + 1 == self.frames.len();
         self.frames.push(frame);
         if following {
             self.current = self.frames.len() - 1;
@@ -65,14 +78,27 @@ impl Timeline {
         self.frames.len().saturating_sub(1)
     }
 
+    /// The last frame the playhead can reach: the newest simulated frame, or
+    /// the end of the range when previewing the body alone.
+    pub fn end(&self) -> usize {
+        if self.body_only { self.range } else { self.last() }
+    }
+
+    /// Leaves body-only preview with the playhead back on a simulated frame.
+    pub fn set_body_only(&mut self, body_only: bool) {
+        self.body_only = body_only;
+        self.current = self.current.min(self.end());
+    }
+
     /// The frame shown.
     pub fn current(&self) -> usize {
         self.current
     }
 
-    /// The frame shown, if any is stored.
+    /// The simulated frame shown, if any is stored (in body-only preview,
+    /// the newest at or before the playhead; its cloth is not drawn).
     pub fn shown(&self) -> Option<&Frame> {
-        self.frames.get(self.current)
+        self.frames.get(self.current.min(self.last()))
     }
 
     /// Frame `index`, if stored.
@@ -90,15 +116,15 @@ impl Timeline {
         index as f64 / self.fps
     }
 
-    /// Moves the playhead to `index` (clamped to the stored frames).
+    /// Moves the playhead to `index` (clamped to [`Self::end`]).
     pub fn seek(&mut self, index: usize) {
-        self.current = index.min(self.last());
+        self.current = index.min(self.end());
         self.phase = 0.0;
     }
 
     /// One frame forward (or back with `-1`), wrapping when looping.
     pub fn step(&mut self, by: isize) {
-        let count = self.frames.len().max(1) as isize;
+        let count = self.end() as isize + 1;
         let next = self.current as isize + by;
         self.current = if self.looping { next.rem_euclid(count) } else { next.clamp(0, count - 1) } as usize;
         self.phase = 0.0;
@@ -106,13 +132,13 @@ impl Timeline {
 
     /// Advances the playhead by `elapsed_s` of real time when playing.
     pub fn tick(&mut self, elapsed_s: f64) {
-        if !self.playing || self.frames.len() < 2 {
+        if !self.playing || self.end() == 0 {
             return;
         }
         self.phase += elapsed_s.max(0.0) * self.speed * self.fps;
         while self.phase >= 1.0 {
             self.phase -= 1.0;
-            if self.current + 1 < self.frames.len() {
+            if self.current < self.end() {
                 self.current += 1;
             } else if self.looping {
                 self.current = 0;
@@ -169,8 +195,8 @@ mod tests {
         timeline.speed = 2.0;
         timeline.tick(0.1);
         assert_eq!(timeline.current(), 9);
-        timeline.tick(1.0 / 30.0);
-        assert_eq!(timeline.current(), 0, "wrapped");
+        timeline.tick(1.0 / 60.0);
+        assert_eq!(timeline.current(), 0, "wrapped after one more frame at 2× speed");
     }
 
     #[test]
@@ -185,6 +211,19 @@ mod tests {
         assert_eq!(timeline.current(), 3, "stepping stops at the end too");
         timeline.step(-5);
         assert_eq!(timeline.current(), 0);
+    }
+
+    #[test]
+    fn body_only_preview_plays_the_whole_range_past_the_simulated_frames() {
+        let mut timeline = filled(3);
+        timeline.set_body_only(true);
+        timeline.seek(50);
+        assert_eq!(timeline.current(), 50);
+        assert_eq!(timeline.shown().unwrap().record.frame, 2, "the newest simulated frame");
+        timeline.step(60);
+        assert_eq!(timeline.current(), 9, "wrapped around the 100-frame range");
+        timeline.set_body_only(false);
+        assert_eq!(timeline.current(), 2, "back on a simulated frame");
     }
 
     #[test]

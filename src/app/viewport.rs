@@ -18,6 +18,7 @@ struct Shown {
     camera: OrbitCamera,
     rig: usize,
     size: [u32; 2],
+    body_only: bool,
 }
 
 /// The viewport's GPU side.
@@ -103,11 +104,13 @@ impl Viewport {
             camera,
             rig: editor.rig,
             size: scaled,
+            body_only: editor.timeline.body_only,
         };
         if self.shown.as_ref() == Some(&shown) {
             return;
         }
         stage.pose(&mut self.renderer, &frame.positions, time_s);
+        stage.show_garments(&mut self.renderer, !shown.body_only);
         let view = stage.view_through(camera, target.aspect(), editor.light_rig(), time_s);
         target.render(&self.gpu, &self.renderer, &view);
         self.shown = Some(shown);

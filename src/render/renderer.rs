@@ -118,6 +118,7 @@ struct GpuMesh {
     material: Material,
     bind_group: wgpu::BindGroup,
     casts_shadow: bool,
+    visible: bool,
 }
 
 /// Pipelines, the shadow map and the uploaded meshes.
@@ -464,6 +465,14 @@ impl Renderer {
             material: mesh.material.clone(),
             bind_group,
             casts_shadow: mesh.casts_shadow,
+            visible: true,
+        }
+    }
+
+    /// Shows or hides mesh `index` (hidden meshes cast no shadow either).
+    pub fn set_visible(&mut self, index: usize, visible: bool) {
+        if let Some(mesh) = self.meshes.get_mut(index) {
+            mesh.visible = visible;
         }
     }
 
@@ -530,7 +539,7 @@ impl Renderer {
         });
         pass.set_pipeline(&self.pbr);
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
-        for mesh in &self.meshes {
+        for mesh in self.meshes.iter().filter(|m| m.visible) {
             draw(&mut pass, mesh);
         }
     }
@@ -550,7 +559,7 @@ impl Renderer {
         });
         pass.set_pipeline(&self.shadow);
         pass.set_bind_group(0, &self.shadow_bind_group, &[]);
-        for mesh in self.meshes.iter().filter(|m| m.casts_shadow) {
+        for mesh in self.meshes.iter().filter(|m| m.casts_shadow && m.visible) {
             draw(&mut pass, mesh);
         }
     }

@@ -256,6 +256,15 @@ impl Stage {
         }
     }
 
+    /// Shows or hides the garments in `renderer` (the body's motion alone).
+    pub fn show_garments(&self, renderer: &mut Renderer, visible: bool) {
+        for look in self.garments.iter().filter(|l| matches!(l.source, VertexSource::Particles(_))) {
+            for piece in &look.pieces {
+                renderer.set_visible(piece.mesh, visible);
+            }
+        }
+    }
+
     fn pose_meshes(&mut self, positions: &[Vector3<f64>], t_s: f64) {
         let mut animated = Vec::new();
         for look in &self.garments {
