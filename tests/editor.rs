@@ -259,3 +259,36 @@ fn quitting_with_unsaved_changes_asks_first() {
     h.run_steps(2);
     assert!(h.state().quit, "discarding closes the window");
 }
+
+#[test]
+fn file_dialogs_offer_only_what_they_read_and_load_the_choice() {
+    let dir = tempfile::tempdir().unwrap();
+    let garment = include_str!("../assets/garments/skirt.obj");
+    std::fs::write(dir.path().join("other.obj"), garment).unwrap();
+    std::fs::write(dir.path().join("notes.txt"), "not a mesh").unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_all_by_label("…").next().expect("a browse button").click();
+    h.run_steps(3);
+    assert!(h.query_all_by_label_contains("Open a scene").count() > 0, "the dialog is open");
+    h.get_by_label_contains("small.toml");
+    assert!(h.query_by_label_contains("notes.txt").is_none(), "only scene files are offered");
+    h.get_by_label("Cancel").click();
+    h.run_steps(3);
+    assert!(h.state().browse.is_none(), "cancelled");
+
+    let buttons: Vec<_> = h.get_all_by_label("…").collect();
+    buttons[1].click();
+    h.run_steps(3);
+    h.get_by_label_contains("other.obj").click();
+    h.run_steps(2);
+    h.get_all_by_label("Open").last().expect("the dialog's Open button").click();
+    h.run_steps(3);
+    assert!(h.state().browse.is_none() && h.state().is_loading());
+    h.state_mut().finish_loading();
+    h.run_steps(2);
+    let editor = h.state();
+    let skirt_vertices = garment.lines().filter(|l| l.starts_with("v ")).count();
+    assert_eq!(editor.scene.garments[0].mesh.vertex_count(), skirt_vertices, "the skirt replaced the grid");
+    assert!(editor.paths.garment.ends_with("other.obj"));
+}

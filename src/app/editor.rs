@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::Instant;
 
+use super::browse::{Browse, Purpose};
 use super::export::{ExportEvent, ExportJob, ExportKind};
 use super::orbit::CameraControl;
 use super::timeline::Timeline;
@@ -149,6 +150,8 @@ pub struct Editor {
     pub paths: PathFields,
     /// An export in progress and its last progress.
     pub export: Option<(ExportJob, usize, usize)>,
+    /// An open file dialog.
+    pub browse: Option<Browse>,
     /// A scene being loaded or re-resolved in the background.
     loading: Option<Receiver<Result<Scene, String>>>,
     /// The window should close (set once the user confirmed).
@@ -190,6 +193,7 @@ impl Editor {
             dirty: false,
             paths,
             export: None,
+            browse: None,
             loading: None,
             quit: false,
             confirm_quit: false,
@@ -402,6 +406,50 @@ impl Editor {
         let path = self.scene.source.clone().unwrap_or_else(|| PathBuf::from(format!("{}.toml", self.scene.name)));
         self.start_loading(move || Scene::resolve(file, &path).map_err(|e| e.to_string()));
         self.dirty = true;
+    }
+
+    /// Replaces the selected garment's mesh with the OBJ at `path`.
+    pub fn use_garment_mesh(&mut self, path: PathBuf) {
+        let g = self.garment;
+        self.edit_scene(|file| {
+            if let Some(spec) = file.garments.get_mut(g) {
+                spec.mesh = MeshSpec::Obj(path);
+            }
+        });
+    }
+
+    /// Replaces the first body with the FBX or motion cache at `path`.
+    pub fn use_body(&mut self, path: PathBuf) {
+        if self.scene.file.bodies.is_empty() {
+            return self.tell("this scene has no body to replace", true);
+        }
+        self.edit_scene(|file| {
+            if let Some(body) = file.bodies.first_mut() {
+                body.file = path;
+            }
+        });
+    }
+
+    /// Drives the first body with the motion of the FBX at `path`.
+    pub fn use_motion(&mut self, path: PathBuf) {
+        if self.scene.file.bodies.is_empty() {
+            return self.tell("this scene has no body to drive", true);
+        }
+        self.edit_scene(|file| {
+            if let Some(body) = file.bodies.first_mut() {
+                body.motion = Some(path);
+            }
+        });
+    }
+
+    /// Opens a file dialog for `purpose`, starting where `current` (a path
+    /// field's text) points, else in the scene's folder.
+    pub fn browse(&mut self, purpose: Purpose, current: &str) {
+        let base = self.base_dir();
+        let current = Path::new(current.trim());
+        let start = if current.as_os_str().is_empty() { base } else { base.join(current) };
+        let folder = if start.is_dir() { start } else { start.parent().map(Path::to_owned).unwrap_or_default() };
+        self.browse = Some(Browse::open(purpose, &folder));
     }
 
     fn start_loading(&mut self, load: impl FnOnce() -> Result<Scene, String> + Send + 'static) {

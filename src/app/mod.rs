@@ -9,6 +9,7 @@
 //! [`panels`] lays it out; [`viewport`] renders the 3D view into a texture;
 //! [`window`] is the winit / wgpu / egui glue.
 
+pub mod browse;
 pub mod editor;
 pub mod export;
 pub mod fabric_panel;

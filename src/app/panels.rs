@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use egui::{Align2, Color32, PointerButton, Rect, Sense, Ui, Vec2, pos2};
 
+use super::browse::Purpose;
 use super::editor::{Editor, Quality, RunState};
 use super::export::ExportKind;
 use super::fabric_panel;
@@ -27,6 +28,7 @@ pub fn editor_ui(ui: &mut Ui, editor: &mut Editor, viewport: Option<egui::Textur
         egui::ScrollArea::vertical().show(ui, |ui| controls(ui, editor));
     });
     let size = egui::CentralPanel::no_frame().show(ui, |ui| viewport_ui(ui, editor, viewport)).inner;
+    super::browse::show(ui.ctx(), editor);
     messages(ui.ctx(), editor);
     quit_question(ui.ctx(), editor);
     size
@@ -93,23 +95,66 @@ fn controls(ui: &mut Ui, editor: &mut Editor) {
     egui::CollapsingHeader::new("Export").default_open(true).show(ui, |ui| export(ui, editor));
 }
 
-/// A labelled path field with a button; returns the path when pressed.
-fn path_row(ui: &mut Ui, label: &str, value: &mut String, button: &str, hint: &str) -> Option<PathBuf> {
+/// A labelled path field with a button that uses it and one that browses;
+/// returns the path when the first is pressed (or Enter typed in the field).
+fn path_row(ui: &mut Ui, editor: &mut Editor, field: Field, button: &str, hint: &str) -> Option<PathBuf> {
+    let (label, purpose) = field.describe();
     let mut chosen = None;
+    let mut browse = false;
     ui.horizontal(|ui| {
         let name = ui.label(label);
-        let field = ui.add(egui::TextEdit::singleline(value).desired_width(170.0).hint_text(hint)).labelled_by(name.id);
-        let entered = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        let value = field.value(editor);
+        let edit = egui::TextEdit::singleline(value).desired_width(150.0).hint_text(hint);
+        let response = ui.add(edit).labelled_by(name.id);
+        let entered = response.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
         if ui.button(button).clicked() || entered {
             chosen = Some(PathBuf::from(value.trim()));
         }
+        browse = ui.button("…").on_hover_text("Choose a file").clicked();
     });
+    if browse {
+        let current = field.value(editor).clone();
+        editor.browse(purpose, &current);
+    }
     chosen.filter(|p| !p.as_os_str().is_empty())
+}
+
+/// The path fields of the panels.
+#[derive(Clone, Copy)]
+enum Field {
+    Scene,
+    Garment,
+    Body,
+    Motion,
+    Fabric,
+}
+
+impl Field {
+    fn describe(self) -> (&'static str, Purpose) {
+        match self {
+            Field::Scene => ("Scene", Purpose::OpenScene),
+            Field::Garment => ("OBJ", Purpose::Garment),
+            Field::Body => ("Body", Purpose::Body),
+            Field::Motion => ("Motion", Purpose::Motion),
+            Field::Fabric => ("File", Purpose::LoadFabric),
+        }
+    }
+
+    fn value(self, editor: &mut Editor) -> &mut String {
+        let paths = &mut editor.paths;
+        match self {
+            Field::Scene => &mut paths.scene,
+            Field::Garment => &mut paths.garment,
+            Field::Body => &mut paths.body,
+            Field::Motion => &mut paths.motion,
+            Field::Fabric => &mut paths.fabric,
+        }
+    }
 }
 
 fn scene_panel(ui: &mut Ui, editor: &mut Editor) {
     let hint = "path/to/scene.toml";
-    if let Some(path) = path_row(ui, "Scene", &mut editor.paths.scene, "Open", hint) {
+    if let Some(path) = path_row(ui, editor, Field::Scene, "Open", hint) {
         editor.open_scene(path);
     }
     ui.horizontal(|ui| {
@@ -117,13 +162,17 @@ fn scene_panel(ui: &mut Ui, editor: &mut Editor) {
             let path = PathBuf::from(editor.paths.scene.trim());
             editor.save_scene(&path);
         }
+        if ui.button("Save as…").on_hover_text("Save the scene under another name").clicked() {
+            let current = editor.paths.scene.clone();
+            editor.browse(Purpose::SaveScene, &current);
+        }
         ui.label(format!("{} frames at {} fps", editor.scene.frame_count, editor.scene.fps));
     });
     ui.separator();
     garment_fields(ui, editor);
     ui.separator();
     body_fields(ui, editor);
-    ui.label("Drop an OBJ, FBX, .motion or scene file on the window to use it.");
+    ui.label("Or drop an OBJ, FBX, .motion or scene file on the window.");
 }
 
 fn garment_fields(ui: &mut Ui, editor: &mut Editor) {
@@ -145,12 +194,8 @@ fn garment_fields(ui: &mut Ui, editor: &mut Editor) {
         };
     }
     let g = editor.garment;
-    if let Some(path) = path_row(ui, "OBJ", &mut editor.paths.garment, "Load OBJ", "garment.obj") {
-        editor.edit_scene(|file| {
-            if let Some(spec) = file.garments.get_mut(g) {
-                spec.mesh = crate::scene::file::MeshSpec::Obj(path);
-            }
-        });
+    if let Some(path) = path_row(ui, editor, Field::Garment, "Load OBJ", "garment.obj") {
+        editor.use_garment_mesh(path);
     }
     let Some(spec) = editor.scene.file.garments.get(g) else { return };
     let (mut translation, mut rotation, mut scale) = (spec.translation_m, spec.rotation_deg, spec.scale);
@@ -199,20 +244,12 @@ fn body_fields(ui: &mut Ui, editor: &mut Editor) {
     if ui.checkbox(&mut body_only, "Preview the motion alone").on_hover_text(tip).changed() {
         editor.timeline.set_body_only(body_only);
     }
-    if let Some(path) = path_row(ui, "Body", &mut editor.paths.body, "Load body", "body.fbx or walk.motion") {
-        editor.edit_scene(|file| {
-            if let Some(body) = file.bodies.first_mut() {
-                body.file = path;
-            }
-        });
+    if let Some(path) = path_row(ui, editor, Field::Body, "Load body", "body.fbx or walk.motion") {
+        editor.use_body(path);
     }
     let hint = "other.fbx (bones matched by name)";
-    if let Some(path) = path_row(ui, "Motion", &mut editor.paths.motion, "Use motion", hint) {
-        editor.edit_scene(|file| {
-            if let Some(body) = file.bodies.first_mut() {
-                body.motion = Some(path);
-            }
-        });
+    if let Some(path) = path_row(ui, editor, Field::Motion, "Use motion", hint) {
+        editor.use_motion(path);
     }
 }
 
@@ -233,17 +270,12 @@ fn fabric(ui: &mut Ui, editor: &mut Editor) {
     if let Some(garment) = editor.scene.garments.get(g) {
         ui.label(egui::RichText::new(&garment.preset.about.feel).italics());
     }
-    if let Some(path) = path_row(ui, "File", &mut editor.paths.fabric, "Load preset", "fabric.toml") {
+    if let Some(path) = path_row(ui, editor, Field::Fabric, "Load preset", "fabric.toml") {
         editor.choose_preset(&path.display().to_string());
     }
-    if ui.button("Save parameters").on_hover_text("Write these parameters as a preset file (the path above)").clicked()
-    {
-        let path = PathBuf::from(editor.paths.fabric.trim());
-        if path.as_os_str().is_empty() {
-            editor.tell("type a file name for the parameters first", true);
-        } else {
-            editor.save_fabric(&path);
-        }
+    if ui.button("Save parameters…").on_hover_text("Write these parameters as a preset file").clicked() {
+        let current = editor.paths.fabric.clone();
+        editor.browse(Purpose::SaveFabric, &current);
     }
     let Some(garment) = editor.scene.garments.get_mut(g) else { return };
     if fabric_panel::sliders(ui, &mut garment.fabric) {
@@ -305,10 +337,16 @@ fn camera(ui: &mut Ui, editor: &mut Editor) {
 }
 
 fn export(ui: &mut Ui, editor: &mut Editor) {
+    let mut browse = false;
     ui.horizontal(|ui| {
         let name = ui.label("Folder");
-        ui.add(egui::TextEdit::singleline(&mut editor.paths.export).desired_width(200.0)).labelled_by(name.id);
+        ui.add(egui::TextEdit::singleline(&mut editor.paths.export).desired_width(180.0)).labelled_by(name.id);
+        browse = ui.button("…").on_hover_text("Choose the export folder").clicked();
     });
+    if browse {
+        let current = editor.paths.export.clone();
+        editor.browse(Purpose::ExportFolder, &current);
+    }
     ui.horizontal(|ui| {
         let free = editor.export.is_none();
         if ui.add_enabled(free, egui::Button::new("OBJ + PC2")).on_hover_text("OBJ sequence and point caches").clicked()

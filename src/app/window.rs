@@ -12,6 +12,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop, OwnedDisplayHan
 use winit::window::{Window, WindowId};
 
 use super::AppError;
+use super::browse::{Purpose, choose};
 use super::editor::Editor;
 use super::panels::editor_ui;
 use super::viewport::Viewport;
@@ -142,22 +143,16 @@ impl ApplicationHandler for App {
 /// replaces the selected garment's mesh, an FBX or motion cache the body.
 fn open_dropped(editor: &mut Editor, path: &Path) {
     let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    let path = path.to_owned();
-    let g = editor.garment;
-    match extension.as_str() {
-        "toml" => editor.open_scene(path),
-        "obj" => editor.edit_scene(|file| {
-            if let Some(spec) = file.garments.get_mut(g) {
-                spec.mesh = crate::scene::file::MeshSpec::Obj(path);
-            }
-        }),
-        "fbx" | "motion" if !editor.scene.file.bodies.is_empty() => editor.edit_scene(|file| {
-            if let Some(body) = file.bodies.first_mut() {
-                body.file = path;
-            }
-        }),
-        _ => editor.tell(format!("{}: not a scene, garment OBJ, body FBX or motion cache", path.display()), true),
-    }
+    let purpose = match extension.as_str() {
+        "toml" => Purpose::OpenScene,
+        "obj" => Purpose::Garment,
+        "fbx" | "motion" => Purpose::Body,
+        _ => {
+            let problem = "not a scene, garment OBJ, body FBX or motion cache";
+            return editor.tell(format!("{}: {problem}", path.display()), true);
+        }
+    };
+    choose(editor, purpose, path.to_owned());
 }
 
 impl Open {
