@@ -292,3 +292,41 @@ fn file_dialogs_offer_only_what_they_read_and_load_the_choice() {
     assert_eq!(editor.scene.garments[0].mesh.vertex_count(), skirt_vertices, "the skirt replaced the grid");
     assert!(editor.paths.garment.ends_with("other.obj"));
 }
+
+/// Bakes at `quality` through the UI and returns the error of the newest
+/// frame against the reference.
+fn bake_error_at(h: &mut Harness<'_, Editor>, quality: &str) -> f64 {
+    h.get_by_role_and_label(Role::ComboBox, "Quality").click();
+    h.run_steps(2);
+    h.get_by_label(quality).click();
+    h.run_steps(2);
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(h, "the bake", |e| e.run == RunState::Idle);
+    h.state().run_error().expect("an error against the reference").1
+}
+
+#[test]
+fn the_reference_run_measures_the_error_of_each_quality() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_label("Accuracy").click();
+    h.run_steps(2);
+    h.get_by_label("Compute reference").click();
+    h.run_steps(2);
+    let deadline = Instant::now() + Duration::from_secs(300);
+    while h.state().reference.is_none() {
+        assert!(Instant::now() < deadline && h.state().reference_job.is_some(), "the reference run ended without result");
+        std::thread::sleep(Duration::from_millis(50));
+        h.state_mut().update(0.0);
+    }
+    let reference = h.state().reference.clone().unwrap();
+    assert_eq!(reference.steps_per_frame, 32, "16 × the scene's 2 steps");
+    assert_eq!(reference.frames.len(), h.state().scene.frame_count + 1);
+    let preview = bake_error_at(&mut h, "Preview");
+    let fine = bake_error_at(&mut h, "Final");
+    assert!(preview > 0.0 && preview < 0.05, "Preview: {preview}");
+    assert!(fine < preview, "Final ({fine}) is closer to the reference than Preview ({preview})");
+    h.get_by_label_contains("these frames: mean error");
+}

@@ -10,6 +10,7 @@ use std::time::Instant;
 use super::browse::{Browse, Purpose};
 use super::export::{ExportEvent, ExportJob, ExportKind};
 use super::orbit::CameraControl;
+use super::reference::{Reference, ReferenceEvent, ReferenceJob};
 use super::timeline::Timeline;
 use super::worker::{Command, Event, Stop, Worker};
 use crate::io::atomic::write_file;
@@ -152,6 +153,10 @@ pub struct Editor {
     pub export: Option<(ExportJob, usize, usize)>,
     /// An open file dialog.
     pub browse: Option<Browse>,
+    /// The reference run the simulated frames are compared with.
+    pub reference: Option<Reference>,
+    /// A reference run in progress and its last progress.
+    pub reference_job: Option<(ReferenceJob, usize, usize)>,
     /// A scene being loaded or re-resolved in the background.
     loading: Option<Receiver<Result<Scene, String>>>,
     /// The window should close (set once the user confirmed).
@@ -194,6 +199,8 @@ impl Editor {
             paths,
             export: None,
             browse: None,
+            reference: None,
+            reference_job: None,
             loading: None,
             quit: false,
             confirm_quit: false,
@@ -237,6 +244,7 @@ impl Editor {
         }
         self.poll_loading();
         self.poll_export();
+        self.poll_reference();
         self.timeline.tick(elapsed_s);
         self.camera.tick(elapsed_s as f32);
         self.messages.retain(|m| m.error || m.at.elapsed().as_secs_f64() < 6.0);
@@ -249,6 +257,7 @@ impl Editor {
             || self.camera.turntable_period_s.is_some()
             || self.loading.is_some()
             || self.export.is_some()
+            || self.reference_job.is_some()
     }
 
     fn on_event(&mut self, event: Event) {
@@ -331,6 +340,7 @@ impl Editor {
             Ok(()) => {
                 self.worker.send(Command::SetFabric { garment: g, fabric: Box::new(garment.fabric.clone()) });
                 self.dirty = true;
+                self.forget_reference();
             }
             Err(e) => return self.tell(format!("garment '{}': {e}", garment.name), true),
         }
@@ -497,6 +507,7 @@ impl Editor {
                 self.quality = Quality::Balanced;
                 self.timeline = Timeline::new(scene.fps, scene.frame_count);
                 self.scene = scene;
+                self.forget_reference();
                 self.worker.send(Command::Reset(Box::new(self.scene.clone())));
                 self.run = RunState::Idle;
                 self.generation += 1;
@@ -558,6 +569,76 @@ impl Editor {
             self.export = None;
             self.tell(text, error);
         }
+    }
+
+    /// Starts the reference run: this scene with its current fabrics at 16×
+    /// the Balanced steps per frame and a tight tolerance, whatever the
+    /// quality chosen, so every quality can be compared with it.
+    pub fn compute_reference(&mut self) {
+        if self.reference_job.is_some() {
+            return;
+        }
+        let mut scene = self.scene.clone();
+        (scene.steps_per_frame, scene.solver.tolerance) = self.base_effort;
+        self.reference = None;
+        self.reference_job = Some((ReferenceJob::start(scene), 0, self.scene.frame_count));
+    }
+
+    /// Drops the reference (the parameters it was run with changed).
+    fn forget_reference(&mut self) {
+        if let Some((job, ..)) = self.reference_job.take() {
+            job.cancel();
+            self.tell("the reference run was stopped: the fabric or scene changed", false);
+        }
+        self.reference = None;
+    }
+
+    fn poll_reference(&mut self) {
+        let Some((job, done, total)) = &mut self.reference_job else { return };
+        let mut finished = None;
+        for event in job.events.try_iter() {
+            match event {
+                ReferenceEvent::Progress(d, t) => (*done, *total) = (d, t),
+                ReferenceEvent::Done(reference) => finished = Some(Ok(reference)),
+                ReferenceEvent::Failed(reason) => finished = Some(Err(reason)),
+            }
+        }
+        match finished {
+            Some(Ok(reference)) => {
+                self.reference_job = None;
+                self.reference = Some(reference);
+            }
+            Some(Err(reason)) => {
+                self.reference_job = None;
+                self.tell(format!("reference run stopped: {reason}"), true);
+            }
+            None => {}
+        }
+    }
+
+    /// Stops a reference run in progress.
+    pub fn cancel_reference(&mut self) {
+        if let Some((job, ..)) = &self.reference_job {
+            job.cancel();
+        }
+    }
+
+    /// Error of the frame shown against the reference (relative RMS over the
+    /// cloth's rest diagonal, unitless), when there is one.
+    pub fn shown_error(&self) -> Option<f64> {
+        let reference = self.reference.as_ref()?;
+        let frame = self.timeline.current().min(self.timeline.last());
+        reference.error(frame, &self.timeline.frame(frame)?.positions)
+    }
+
+    /// Mean error over the simulated frames and the error of the newest one
+    /// against the reference (unitless), when there is one.
+    pub fn run_error(&self) -> Option<(f64, f64)> {
+        let reference = self.reference.as_ref()?;
+        let errors: Vec<f64> =
+            self.timeline.frames().iter().enumerate().filter_map(|(k, f)| reference.error(k, &f.positions)).collect();
+        let last = *errors.last()?;
+        Some((errors.iter().sum::<f64>() / errors.len() as f64, last))
     }
 
     /// Stops an export in progress.

@@ -15,6 +15,7 @@ pub mod export;
 pub mod fabric_panel;
 pub mod orbit;
 pub mod panels;
+pub mod reference;
 pub mod stats;
 pub mod timeline;
 pub mod viewport;

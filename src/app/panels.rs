@@ -91,6 +91,7 @@ fn controls(ui: &mut Ui, editor: &mut Editor) {
     egui::CollapsingHeader::new("Scene").default_open(true).show(ui, |ui| scene_panel(ui, editor));
     egui::CollapsingHeader::new("Fabric").default_open(true).show(ui, |ui| fabric(ui, editor));
     egui::CollapsingHeader::new("Collision").default_open(false).show(ui, |ui| collision(ui, editor));
+    egui::CollapsingHeader::new("Accuracy").default_open(false).show(ui, |ui| accuracy(ui, editor));
     egui::CollapsingHeader::new("Camera").default_open(false).show(ui, |ui| camera(ui, editor));
     egui::CollapsingHeader::new("Export").default_open(true).show(ui, |ui| export(ui, editor));
 }
@@ -322,6 +323,43 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
     }
 }
 
+fn accuracy(ui: &mut Ui, editor: &mut Editor) {
+    ui.label(
+        "How far the simulated frames are from a reference run of this scene with 16× smaller steps and a \
+         tight solver tolerance (RMS over the vertices, relative to the cloth's size).",
+    );
+    let mut cancel = false;
+    match &editor.reference_job {
+        Some((_, done, total)) => {
+            ui.horizontal(|ui| {
+                let fraction = *done as f32 / (*total).max(1) as f32;
+                ui.add(egui::ProgressBar::new(fraction).text(format!("reference {done}/{total}")).desired_width(200.0));
+                cancel = ui.button("Cancel").clicked();
+            });
+        }
+        None => {
+            let tip = "Runs in the background; changing the fabric discards it";
+            if ui.button("Compute reference").on_hover_text(tip).clicked() {
+                editor.compute_reference();
+            }
+        }
+    }
+    if cancel {
+        editor.cancel_reference();
+    }
+    if let (Some(reference), Some((mean, last))) = (&editor.reference, editor.run_error()) {
+        let mm = |e: f64| e * reference.diagonal_m * 1e3;
+        ui.label(format!(
+            "reference at {} steps/frame; these frames: mean error {:.2} % ({:.1} mm), newest {:.2} % ({:.1} mm)",
+            reference.steps_per_frame,
+            mean * 100.0,
+            mm(mean),
+            last * 100.0,
+            mm(last)
+        ));
+    }
+}
+
 fn camera(ui: &mut Ui, editor: &mut Editor) {
     if ui.button("Frame all").on_hover_text("Back to the scene's framing").clicked() {
         editor.camera.frame_all();
@@ -433,7 +471,12 @@ fn viewport_ui(ui: &mut Ui, editor: &mut Editor, texture: Option<egui::TextureId
         editor.camera.frame_all();
     }
     if let Some(frame) = editor.timeline.shown() {
-        let text = overlay_lines(&frame.record).join("\n");
+        let mut lines = overlay_lines(&frame.record);
+        if let (Some(error), Some(reference)) = (editor.shown_error(), &editor.reference) {
+            let mm = error * reference.diagonal_m * 1e3;
+            lines.push(format!("error vs reference {:.2} % ({mm:.1} mm RMS)", error * 100.0));
+        }
+        let text = lines.join("\n");
         let font = egui::FontId::monospace(12.0);
         let galley = painter.layout_no_wrap(text, font, Color32::from_gray(235));
         let at = rect.min + Vec2::splat(8.0);
