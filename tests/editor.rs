@@ -317,7 +317,10 @@ fn the_reference_run_measures_the_error_of_each_quality() {
     h.run_steps(2);
     let deadline = Instant::now() + Duration::from_secs(300);
     while h.state().reference.is_none() {
-        assert!(Instant::now() < deadline && h.state().reference_job.is_some(), "the reference run ended without result");
+        assert!(
+            Instant::now() < deadline && h.state().reference_job.is_some(),
+            "the reference run ended without result"
+        );
         std::thread::sleep(Duration::from_millis(50));
         h.state_mut().update(0.0);
     }
@@ -329,4 +332,25 @@ fn the_reference_run_measures_the_error_of_each_quality() {
     assert!(preview > 0.0 && preview < 0.05, "Preview: {preview}");
     assert!(fine < preview, "Final ({fine}) is closer to the reference than Preview ({preview})");
     h.get_by_label_contains("these frames: mean error");
+}
+
+#[test]
+fn a_dropped_file_is_used_for_what_it_is_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut editor = Editor::new(small_scene(dir.path()));
+    drape::app::browse::dropped(&mut editor, dir.path().join("notes.txt"));
+    assert!(editor.messages.iter().any(|m| m.error && m.text.contains("notes.txt")));
+    assert!(!editor.is_loading());
+    drape::app::browse::dropped(&mut editor, dir.path().join("walk.fbx"));
+    assert!(editor.messages.iter().any(|m| m.text.contains("no body")), "this scene has no body to replace");
+    let skirt = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/garments/skirt.obj");
+    drape::app::browse::dropped(&mut editor, skirt);
+    editor.finish_loading();
+    assert_eq!(editor.scene.garments[0].name, "cloth");
+    assert!(editor.scene.garments[0].mesh.vertex_count() > 24 * 24, "the skirt replaced the grid");
+    let relative = editor.scene.file.garments[0].mesh.clone();
+    assert!(
+        matches!(relative, drape::scene::file::MeshSpec::Obj(p) if p.is_relative()),
+        "written relative to the scene"
+    );
 }

@@ -82,6 +82,23 @@ impl Browse {
     }
 }
 
+/// Uses a file dropped on the window for what it is: a scene opens, an OBJ
+/// replaces the selected garment's mesh, an FBX or motion cache the body;
+/// anything else is refused with a message.
+pub fn dropped(editor: &mut Editor, path: PathBuf) {
+    let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let purpose = match extension.as_str() {
+        "toml" => Purpose::OpenScene,
+        "obj" => Purpose::Garment,
+        "fbx" | "motion" => Purpose::Body,
+        _ => {
+            let problem = "not a scene, garment OBJ, body FBX or motion cache";
+            return editor.tell(format!("{}: {problem}", path.display()), true);
+        }
+    };
+    choose(editor, purpose, path);
+}
+
 /// `path` relative to `folder` (with `..` where it lies outside), so that a
 /// saved scene still finds it when the project folder moves; absolute when
 /// the two share no root (another drive).

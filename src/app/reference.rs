@@ -57,12 +57,14 @@ impl ReferenceJob {
         let cancel = Arc::new(AtomicBool::new(false));
         let stop = cancel.clone();
         std::thread::spawn(move || {
-            let _ = sender.send(match run(scene, &stop, |done, total| {
-                let _ = sender.send(ReferenceEvent::Progress(done, total));
-            }) {
-                Ok(reference) => ReferenceEvent::Done(reference),
-                Err(reason) => ReferenceEvent::Failed(reason),
-            });
+            let _ = sender.send(
+                match run(scene, &stop, |done, total| {
+                    let _ = sender.send(ReferenceEvent::Progress(done, total));
+                }) {
+                    Ok(reference) => ReferenceEvent::Done(reference),
+                    Err(reason) => ReferenceEvent::Failed(reason),
+                },
+            );
         });
         ReferenceJob { events, cancel }
     }

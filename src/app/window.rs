@@ -12,7 +12,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop, OwnedDisplayHan
 use winit::window::{Window, WindowId};
 
 use super::AppError;
-use super::browse::{Purpose, choose};
+use super::browse::dropped;
 use super::editor::Editor;
 use super::panels::editor_ui;
 use super::viewport::Viewport;
@@ -95,7 +95,7 @@ impl ApplicationHandler for App {
             // Unsaved changes: the question shows on the next frame.
             WindowEvent::CloseRequested => open.window.request_redraw(),
             WindowEvent::Resized(size) => open.resize(size.width, size.height),
-            WindowEvent::DroppedFile(path) => open_dropped(&mut open.editor, &path),
+            WindowEvent::DroppedFile(path) => dropped(&mut open.editor, path),
             WindowEvent::RedrawRequested => {
                 if let Err(e) = open.frame() {
                     self.failure = Some(e);
@@ -137,22 +137,6 @@ impl ApplicationHandler for App {
             open.window.request_redraw();
         }
     }
-}
-
-/// Uses a file dropped on the window for what it is: a scene opens, an OBJ
-/// replaces the selected garment's mesh, an FBX or motion cache the body.
-fn open_dropped(editor: &mut Editor, path: &Path) {
-    let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    let purpose = match extension.as_str() {
-        "toml" => Purpose::OpenScene,
-        "obj" => Purpose::Garment,
-        "fbx" | "motion" => Purpose::Body,
-        _ => {
-            let problem = "not a scene, garment OBJ, body FBX or motion cache";
-            return editor.tell(format!("{}: {problem}", path.display()), true);
-        }
-    };
-    choose(editor, purpose, path.to_owned());
 }
 
 impl Open {
