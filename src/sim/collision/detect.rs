@@ -29,9 +29,9 @@ const CROSSING_GAP: f64 = 1e-6;
 pub(super) enum Scope {
     /// Every pair the broad phase finds.
     All,
-    /// Only pairs with a point whose path changed since the last detection:
-    /// the others would give the same answer as last time (no contact, or one
-    /// that needed nothing).
+    /// Only pairs with a point whose path changed since the last detection
+    /// (the others would give the same answer as last time), and the feature
+    /// pairs of the workspace's kept contacts, first.
     Moved,
 }
 
@@ -68,6 +68,9 @@ pub(super) enum Job {
     Vertex(u32, u32),
     /// A cloth triangle and a sharp obstacle edge.
     Edge(u32, u32),
+    /// The feature pair of the last detection's contact with this index
+    /// among the workspace's kept contacts, tested again.
+    Again(u32),
 }
 
 impl CollisionPipeline {
@@ -98,8 +101,22 @@ impl CollisionPipeline {
         let clock = Instant::now();
         let Some(bvh) = self.bvh.as_mut() else { return };
         ws.jobs.clear();
+        // With Scope::Moved only pairs holding a moved cloth triangle are
+        // wanted: the queries start from those triangles (and obstacle parts
+        // near them), and give the pairs a full query would, in its order.
+        let moved_triangles: Option<Vec<bool>> = (scope == Scope::Moved)
+            .then(|| self.triangles.iter().map(|t| t.iter().any(|&v| ws.moved[v as usize])).collect());
+        let near = match &moved_triangles {
+            Some(moved) => {
+                ws.triangle_box.iter().zip(moved).filter(|(_, m)| **m).fold(Box3::empty(), |all, (b, _)| all.union(b))
+            }
+            None => ws.triangle_box.iter().fold(Box3::empty(), |all, b| all.union(b)),
+        };
         if self.self_collision.iter().any(|&s| s) || self.self_collision.len() > 1 {
-            bvh.self_pairs(&mut ws.pairs);
+            match &moved_triangles {
+                Some(moved) => moved_pairs(bvh, &ws.triangle_box, moved, &mut ws.hits, &mut ws.pairs),
+                None => bvh.self_pairs(&mut ws.pairs),
+            }
             let (garment, self_collision) = (&self.triangle_garment, &self.self_collision);
             ws.jobs.extend(ws.pairs.iter().filter_map(|&(a, b)| {
                 let (ga, gb) = (garment[a as usize], garment[b as usize]);
@@ -107,34 +124,39 @@ impl CollisionPipeline {
             }));
         }
         let o = &self.obstacles;
-        // Obstacle triangles away from the whole cloth (a body's head and arms
-        // under a skirt) skip the hierarchy query.
-        let cloth_box = ws.triangle_box.iter().fold(Box3::empty(), |all, b| all.union(b));
+        // Obstacle parts away from the (moved) cloth — a body's head and arms
+        // under a skirt — skip the hierarchy query.
         for (t, tri) in o.triangles.iter().enumerate() {
             let [a, b, c] = tri.map(|v| ws.node_box[n + v as usize]);
             let tri_box = a.union(&b).union(&c);
-            if !tri_box.overlaps(&cloth_box) {
+            if !tri_box.overlaps(&near) {
                 continue;
             }
             bvh.overlapping(&tri_box, &mut ws.hits);
             ws.jobs.extend(ws.hits.iter().map(|&h| Job::Mesh(h, t as u32)));
         }
         for &v in &o.feature_vertices {
-            bvh.overlapping(&ws.node_box[n + v as usize], &mut ws.hits);
-            ws.jobs.extend(ws.hits.iter().map(|&h| Job::Vertex(h, v)));
+            let vertex_box = ws.node_box[n + v as usize];
+            if vertex_box.overlaps(&near) {
+                bvh.overlapping(&vertex_box, &mut ws.hits);
+                ws.jobs.extend(ws.hits.iter().map(|&h| Job::Vertex(h, v)));
+            }
         }
         for (e, [a, b]) in o.feature_edges.iter().enumerate() {
-            bvh.overlapping(&ws.node_box[n + *a as usize].union(&ws.node_box[n + *b as usize]), &mut ws.hits);
-            ws.jobs.extend(ws.hits.iter().map(|&h| Job::Edge(h, e as u32)));
+            let edge_box = ws.node_box[n + *a as usize].union(&ws.node_box[n + *b as usize]);
+            if edge_box.overlaps(&near) {
+                bvh.overlapping(&edge_box, &mut ws.hits);
+                ws.jobs.extend(ws.hits.iter().map(|&h| Job::Edge(h, e as u32)));
+            }
         }
-        if scope == Scope::Moved {
-            let (moved, triangles, o) = (&ws.moved, &self.triangles, &self.obstacles);
-            let cloth_moved = |t: u32| triangles[t as usize].iter().any(|&v| moved[v as usize]);
+        if let Some(moved) = &moved_triangles {
             ws.jobs.retain(|job| match *job {
-                Job::Cloth(a, b) => cloth_moved(a) || cloth_moved(b),
-                Job::Mesh(t, _) | Job::Vertex(t, _) | Job::Edge(t, _) => cloth_moved(t),
+                Job::Cloth(a, b) => moved[a as usize] || moved[b as usize],
+                Job::Mesh(t, _) | Job::Vertex(t, _) | Job::Edge(t, _) => moved[t as usize],
+                Job::Again(_) => true,
             });
-            debug_assert!(o.is_empty() || !moved[n..].iter().any(|&m| m), "obstacles never move in a response");
+            ws.jobs.splice(0..0, (0..ws.kept.len() as u32).map(Job::Again));
+            debug_assert!(o.is_empty() || !ws.moved[n..].iter().any(|&m| m), "obstacles never move in a response");
         }
         ws.moved.fill(false);
         report.pairs = ws.jobs.len() as u32;
@@ -154,6 +176,7 @@ impl CollisionPipeline {
             displacement: &ws.displacement,
             node_box: &ws.node_box,
             triangle_box: &ws.triangle_box,
+            kept: &ws.kept,
             detection,
             counting: report.passes == 0 && detection == Detection::Proximity,
         };
@@ -178,6 +201,18 @@ impl CollisionPipeline {
     }
 }
 
+/// The overlapping pairs `(low, high)` of cloth triangles with at least one
+/// `moved`, sorted: what [`SweptBvh::self_pairs`] gives, restricted to them.
+fn moved_pairs(bvh: &SweptBvh, boxes: &[Box3], moved: &[bool], hits: &mut Vec<u32>, out: &mut Vec<(u32, u32)>) {
+    out.clear();
+    for (a, _) in moved.iter().enumerate().filter(|(_, m)| **m) {
+        bvh.overlapping(&boxes[a], hits);
+        let a = a as u32;
+        out.extend(hits.iter().filter(|&&h| h != a && (!moved[h as usize] || a < h)).map(|&h| (a.min(h), a.max(h))));
+    }
+    out.sort_unstable();
+}
+
 /// Everything the narrow phase reads.
 struct Narrow<'a> {
     pipeline_triangles: &'a [[u32; 3]],
@@ -190,6 +225,7 @@ struct Narrow<'a> {
     displacement: &'a [f64],
     node_box: &'a [Box3],
     triangle_box: &'a [Box3],
+    kept: &'a [Contact],
     detection: Detection,
     /// Whether to count the tests without ownership too (first detection of
     /// a step only: the count costs as much as a cheap test).
@@ -335,6 +371,17 @@ impl Narrow<'_> {
                     self.counting && self.node_box[(v + offset) as usize].overlaps(&self.triangle_box[t as usize]),
                 );
                 self.vertex_triangle(v + offset, cloth(t), &self.triangle_box[t as usize], found, tests);
+            }
+            Job::Again(k) => {
+                let contact = &self.kept[k as usize];
+                let [a, b, c, d] = contact.nodes;
+                match contact.kind {
+                    ContactKind::VertexTriangle => {
+                        let tri_box = self.node_box[b as usize].union(&self.node_box[c as usize]);
+                        self.vertex_triangle(a, [b, c, d], &tri_box.union(&self.node_box[d as usize]), found, tests);
+                    }
+                    ContactKind::EdgeEdge => self.edge_edge([a, b], [c, d], found, tests),
+                }
             }
             Job::Edge(t, e) => {
                 let obstacle = self.obstacles.feature_edges[e as usize].map(|v| v + offset);

@@ -12,8 +12,9 @@ use super::response::{Points, rigidify};
 use super::{CollisionPipeline, CollisionReport, Kinematic};
 
 impl CollisionPipeline {
-    /// Rigid impact zones until nothing crosses (or the rounds run out).
-    /// Returns the rounds used and the crossings left.
+    /// Rigid impact zones until nothing crosses (or the rounds run out), run
+    /// right after the impulse passes (their last detection's contacts are in
+    /// the workspace). Returns the rounds used and the crossings left.
     pub(super) fn impact_zones(
         &mut self,
         window: crate::sim::contact::StepWindow,
@@ -23,7 +24,13 @@ impl CollisionPipeline {
         self.ws.zones.reset(total);
         let mut round = 0;
         loop {
-            self.detect(Detection::Crossings, if round == 0 { Scope::All } else { Scope::Moved }, report);
+            // The first round follows the impulse passes' last (proximity)
+            // detection; later ones the zones' own moves.
+            if round == 0 {
+                self.detect_again(Detection::Crossings, report);
+            } else {
+                self.detect(Detection::Crossings, Scope::Moved, report);
+            }
             let crossings = std::mem::take(&mut self.ws.contacts);
             if crossings.is_empty() || round == self.settings.zone_rounds {
                 let left = crossings.len() as u32;
