@@ -8,9 +8,10 @@ use std::sync::mpsc::{Receiver, channel};
 use std::time::Instant;
 
 use super::browse::{Browse, Purpose};
-use super::export::{ExportEvent, ExportJob, ExportKind};
+use super::export::{self, ExportKind};
+use super::job::Job;
 use super::orbit::CameraControl;
-use super::reference::{Reference, ReferenceEvent, ReferenceJob};
+use super::reference::{self, Reference};
 use super::timeline::Timeline;
 use super::worker::{Command, Event, Stop, Worker};
 use crate::io::atomic::write_file;
@@ -149,14 +150,14 @@ pub struct Editor {
     pub dirty: bool,
     /// The path fields of the panels.
     pub paths: PathFields,
-    /// An export in progress and its last progress.
-    pub export: Option<(ExportJob, usize, usize)>,
+    /// An export in progress (its result: the folder).
+    pub export: Option<Job<PathBuf>>,
     /// An open file dialog.
     pub browse: Option<Browse>,
     /// The reference run the simulated frames are compared with.
     pub reference: Option<Reference>,
-    /// A reference run in progress and its last progress.
-    pub reference_job: Option<(ReferenceJob, usize, usize)>,
+    /// A reference run in progress.
+    pub reference_job: Option<Job<Reference>>,
     /// A scene being loaded or re-resolved in the background.
     loading: Option<Receiver<Result<Scene, String>>>,
     /// The window should close (set once the user confirmed).
@@ -550,24 +551,15 @@ impl Editor {
         }
         let dir = PathBuf::from(self.paths.export.trim());
         let frames = self.timeline.frames().to_vec();
-        let job = ExportJob::start(kind, self.scene.clone(), frames, self.light_rig().clone(), dir);
-        let total = self.timeline.len();
-        self.export = Some((job, 0, total));
+        self.export = Some(export::start(kind, self.scene.clone(), frames, self.light_rig().clone(), dir));
     }
 
     fn poll_export(&mut self) {
-        let Some((job, done, total)) = &mut self.export else { return };
-        let mut finished = None;
-        for event in job.events.try_iter() {
-            match event {
-                ExportEvent::Progress(d, t) => (*done, *total) = (d, t),
-                ExportEvent::Done(dir) => finished = Some((format!("exported to {}", dir.display()), false)),
-                ExportEvent::Failed(reason) => finished = Some((format!("export stopped: {reason}"), true)),
-            }
-        }
-        if let Some((text, error)) = finished {
-            self.export = None;
-            self.tell(text, error);
+        let Some(result) = self.export.as_mut().and_then(Job::poll) else { return };
+        self.export = None;
+        match result {
+            Ok(dir) => self.tell(format!("exported to {}", dir.display()), false),
+            Err(reason) => self.tell(format!("export stopped: {reason}"), true),
         }
     }
 
@@ -581,12 +573,12 @@ impl Editor {
         let mut scene = self.scene.clone();
         (scene.steps_per_frame, scene.solver.tolerance) = self.base_effort;
         self.reference = None;
-        self.reference_job = Some((ReferenceJob::start(scene), 0, self.scene.frame_count));
+        self.reference_job = Some(reference::start(scene));
     }
 
     /// Drops the reference (the parameters it was run with changed).
     fn forget_reference(&mut self) {
-        if let Some((job, ..)) = self.reference_job.take() {
+        if let Some(job) = self.reference_job.take() {
             job.cancel();
             self.tell("the reference run was stopped: the fabric or scene changed", false);
         }
@@ -594,31 +586,17 @@ impl Editor {
     }
 
     fn poll_reference(&mut self) {
-        let Some((job, done, total)) = &mut self.reference_job else { return };
-        let mut finished = None;
-        for event in job.events.try_iter() {
-            match event {
-                ReferenceEvent::Progress(d, t) => (*done, *total) = (d, t),
-                ReferenceEvent::Done(reference) => finished = Some(Ok(reference)),
-                ReferenceEvent::Failed(reason) => finished = Some(Err(reason)),
-            }
-        }
-        match finished {
-            Some(Ok(reference)) => {
-                self.reference_job = None;
-                self.reference = Some(reference);
-            }
-            Some(Err(reason)) => {
-                self.reference_job = None;
-                self.tell(format!("reference run stopped: {reason}"), true);
-            }
-            None => {}
+        let Some(result) = self.reference_job.as_mut().and_then(Job::poll) else { return };
+        self.reference_job = None;
+        match result {
+            Ok(reference) => self.reference = Some(reference),
+            Err(reason) => self.tell(format!("reference run stopped: {reason}"), true),
         }
     }
 
     /// Stops a reference run in progress.
     pub fn cancel_reference(&mut self) {
-        if let Some((job, ..)) = &self.reference_job {
+        if let Some(job) = &self.reference_job {
             job.cancel();
         }
     }
@@ -643,7 +621,7 @@ impl Editor {
 
     /// Stops an export in progress.
     pub fn cancel_export(&mut self) {
-        if let Some((job, ..)) = &self.export {
+        if let Some(job) = &self.export {
             job.cancel();
         }
     }

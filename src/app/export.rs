@@ -3,10 +3,9 @@
 //! rendered offscreen.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, channel};
 
+use super::job::Job;
 use super::worker::Frame;
 use crate::bake::FrameRecord;
 use crate::bake::output::BakeFolder;
@@ -29,53 +28,18 @@ pub enum ExportKind {
     },
 }
 
-/// News from an export in progress.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ExportEvent {
-    /// Frames written so far, of the total.
-    Progress(usize, usize),
-    /// Every frame is written.
-    Done(PathBuf),
-    /// It stopped; what is written is whole.
-    Failed(String),
-}
-
-/// An export running on its own thread.
-pub struct ExportJob {
-    /// Its news, in order.
-    pub events: Receiver<ExportEvent>,
-    cancel: Arc<AtomicBool>,
-}
-
-impl ExportJob {
-    /// Starts writing `frames` of `scene` into `dir`.
-    pub fn start(kind: ExportKind, scene: Scene, frames: Vec<Frame>, rig: LightRig, dir: PathBuf) -> ExportJob {
-        let (sender, events) = channel();
-        let cancel = Arc::new(AtomicBool::new(false));
-        let stop = cancel.clone();
-        std::thread::spawn(move || {
-            let progress = |done| {
-                let _ = sender.send(ExportEvent::Progress(done, frames.len()));
-            };
-            let result = match kind {
-                ExportKind::Geometry => write_geometry(&scene, &frames, &dir, &stop, progress),
-                ExportKind::Images { width, height } => {
-                    write_images(&scene, &frames, rig, (width, height), &dir, &stop, progress)
-                }
-            };
-            let _ = sender.send(match result {
-                Ok(()) if stop.load(Ordering::Relaxed) => ExportEvent::Failed("cancelled".into()),
-                Ok(()) => ExportEvent::Done(dir),
-                Err(message) => ExportEvent::Failed(message),
-            });
-        });
-        ExportJob { events, cancel }
-    }
-
-    /// Stops after the frame being written.
-    pub fn cancel(&self) {
-        self.cancel.store(true, Ordering::Relaxed);
-    }
+/// Starts writing `frames` of `scene` into `dir` on a thread; the job's
+/// result is the folder.
+pub fn start(kind: ExportKind, scene: Scene, frames: Vec<Frame>, rig: LightRig, dir: PathBuf) -> Job<PathBuf> {
+    Job::start(frames.len(), move |stop, progress| {
+        match kind {
+            ExportKind::Geometry => write_geometry(&scene, &frames, &dir, stop, progress)?,
+            ExportKind::Images { width, height } => {
+                write_images(&scene, &frames, rig, (width, height), &dir, stop, progress)?
+            }
+        }
+        Ok(dir)
+    })
 }
 
 fn write_geometry(
@@ -83,7 +47,7 @@ fn write_geometry(
     frames: &[Frame],
     dir: &Path,
     stop: &AtomicBool,
-    progress: impl Fn(usize),
+    progress: &dyn Fn(usize),
 ) -> Result<(), String> {
     let mut folder = BakeFolder::create(dir, scene).map_err(|e| e.to_string())?;
     for (k, frame) in frames.iter().enumerate() {
@@ -106,7 +70,7 @@ fn write_images(
     (width, height): (u32, u32),
     dir: &Path,
     stop: &AtomicBool,
-    progress: impl Fn(usize),
+    progress: &dyn Fn(usize),
 ) -> Result<(), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let gpu = Gpu::headless().map_err(|e| e.to_string())?;

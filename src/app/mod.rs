@@ -13,6 +13,7 @@ pub mod browse;
 pub mod editor;
 pub mod export;
 pub mod fabric_panel;
+pub mod job;
 pub mod orbit;
 pub mod panels;
 pub mod reference;

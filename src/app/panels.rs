@@ -330,9 +330,10 @@ fn accuracy(ui: &mut Ui, editor: &mut Editor) {
     );
     let mut cancel = false;
     match &editor.reference_job {
-        Some((_, done, total)) => {
+        Some(job) => {
+            let (done, total) = (job.done, job.total);
             ui.horizontal(|ui| {
-                let fraction = *done as f32 / (*total).max(1) as f32;
+                let fraction = done as f32 / total.max(1) as f32;
                 ui.add(egui::ProgressBar::new(fraction).text(format!("reference {done}/{total}")).desired_width(200.0));
                 cancel = ui.button("Cancel").clicked();
             });
@@ -397,9 +398,10 @@ fn export(ui: &mut Ui, editor: &mut Editor) {
         }
     });
     let mut cancel = false;
-    if let Some((_, done, total)) = &editor.export {
+    if let Some(job) = &editor.export {
+        let (done, total) = (job.done, job.total);
         ui.horizontal(|ui| {
-            let fraction = *done as f32 / (*total).max(1) as f32;
+            let fraction = done as f32 / total.max(1) as f32;
             ui.add(egui::ProgressBar::new(fraction).text(format!("export {done}/{total}")).desired_width(200.0));
             cancel = ui.button("Cancel").clicked();
         });

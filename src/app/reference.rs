@@ -3,11 +3,11 @@
 //! `drape bench accuracy`), and each simulated frame compared with it.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, channel};
+use std::sync::atomic::AtomicBool;
 
 use nalgebra::Vector3;
 
+use super::job::Job;
 use crate::bake;
 use crate::bench::accuracy::{REFERENCE_REFINEMENT, REFERENCE_TOLERANCE, relative_rms, rest_diagonal};
 use crate::scene::Scene;
@@ -32,50 +32,13 @@ impl Reference {
     }
 }
 
-/// News from a reference run.
-#[derive(Debug)]
-pub enum ReferenceEvent {
-    /// Frames done of the total.
-    Progress(usize, usize),
-    /// The run is complete.
-    Done(Reference),
-    /// It failed or was cancelled.
-    Failed(String),
+/// Starts the reference run of `scene` (its fabrics and steps per frame as
+/// they are now) on a thread.
+pub fn start(scene: Scene) -> Job<Reference> {
+    Job::start(scene.frame_count, move |stop, progress| run(scene, stop, progress))
 }
 
-/// A reference run on its own thread.
-pub struct ReferenceJob {
-    /// Its news, in order.
-    pub events: Receiver<ReferenceEvent>,
-    cancel: Arc<AtomicBool>,
-}
-
-impl ReferenceJob {
-    /// Starts the reference of `scene` (its fabrics and steps per frame as they are now).
-    pub fn start(scene: Scene) -> ReferenceJob {
-        let (sender, events) = channel();
-        let cancel = Arc::new(AtomicBool::new(false));
-        let stop = cancel.clone();
-        std::thread::spawn(move || {
-            let _ = sender.send(
-                match run(scene, &stop, |done, total| {
-                    let _ = sender.send(ReferenceEvent::Progress(done, total));
-                }) {
-                    Ok(reference) => ReferenceEvent::Done(reference),
-                    Err(reason) => ReferenceEvent::Failed(reason),
-                },
-            );
-        });
-        ReferenceJob { events, cancel }
-    }
-
-    /// Stops after the frame in progress.
-    pub fn cancel(&self) {
-        self.cancel.store(true, Ordering::Relaxed);
-    }
-}
-
-fn run(mut scene: Scene, stop: &AtomicBool, progress: impl Fn(usize, usize)) -> Result<Reference, String> {
+fn run(mut scene: Scene, stop: &AtomicBool, progress: &dyn Fn(usize)) -> Result<Reference, String> {
     let diagonal_m = rest_diagonal(&scene).map_err(|e| e.to_string())?;
     scene.steps_per_frame = scene.steps_per_frame.saturating_mul(REFERENCE_REFINEMENT);
     scene.solver.tolerance = REFERENCE_TOLERANCE;
@@ -83,7 +46,7 @@ fn run(mut scene: Scene, stop: &AtomicBool, progress: impl Fn(usize, usize)) -> 
     let mut frames = Vec::with_capacity(total + 1);
     let (records, failure) = bake::run(&scene, total, stop, |sim, record| {
         frames.push(Arc::new(sim.positions().to_vec()));
-        progress(record.frame, total);
+        progress(record.frame);
         Ok(())
     })
     .map_err(|e| e.to_string())?;
