@@ -5,3 +5,4 @@ pub mod fbx;
 pub mod motion_cache;
 pub mod obj;
 pub mod pc2;
+pub mod untrusted;

@@ -61,7 +61,13 @@ pub struct ObjGarment {
 /// Reads and validates a garment OBJ.
 pub fn read_obj(path: &Path) -> Result<ObjGarment, ObjError> {
     let bytes = std::fs::read(path).map_err(|source| ObjError::Read { path: path.to_owned(), source })?;
-    let text = std::str::from_utf8(&bytes).map_err(|e| ObjError::Parse {
+    parse_obj(&bytes, path)
+}
+
+/// Parses and validates the bytes of a garment OBJ read from `path` (named
+/// in errors; its material library is looked for beside it).
+pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<ObjGarment, ObjError> {
+    let text = std::str::from_utf8(bytes).map_err(|e| ObjError::Parse {
         path: path.to_owned(),
         line: Some(1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count()),
         problem: "not UTF-8 text (re-save the file as UTF-8)".to_owned(),

@@ -76,8 +76,13 @@ pub enum FbxError {
 /// Reads a body (and its animation, if any) from a binary FBX file.
 pub fn read_fbx(path: &Path) -> Result<Body, FbxError> {
     let bytes = std::fs::read(path).map_err(|source| FbxError::Read { path: path.to_owned(), source })?;
-    check_header(&bytes, path)?;
-    let document = load_document(&bytes).map_err(|problem| FbxError::Malformed { path: path.to_owned(), problem })?;
+    parse_fbx(&bytes, path)
+}
+
+/// Reads a body from the bytes of an FBX file read from `path` (named in errors).
+pub fn parse_fbx(bytes: &[u8], path: &Path) -> Result<Body, FbxError> {
+    check_header(bytes, path)?;
+    let document = load_document(bytes).map_err(|problem| FbxError::Malformed { path: path.to_owned(), problem })?;
     let name = path.file_stem().map_or("body".into(), |s| s.to_string_lossy().into_owned());
     scene::body(&document, name).map_err(|problem| FbxError::Content { path: path.to_owned(), problem })
 }
