@@ -229,3 +229,42 @@ fn exit_codes_say_ok_or_bad_input() {
     assert!(String::from_utf8_lossy(&zero_steps.stderr).contains("--steps"));
     assert_eq!(drape(&["--help"]).status.code(), Some(0));
 }
+
+/// The bake command as a user who may not write to `out` (as root, whom
+/// permissions do not stop, the command runs as `nobody` through setpriv).
+fn bake_without_write_permission(scene: &Path, out: &Path) -> std::process::Output {
+    let exe = env!("CARGO_BIN_EXE_drape");
+    let args = ["bake", scene.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let is_root = Command::new("id").arg("-u").output().is_ok_and(|o| o.stdout.starts_with(b"0"));
+    let mut command = if is_root {
+        let mut c = Command::new("setpriv");
+        c.args(["--reuid=65534", "--regid=65534", "--clear-groups", exe]);
+        c
+    } else {
+        Command::new(exe)
+    };
+    command.args(args).output().expect("setpriv (util-linux) runs the bake as nobody")
+}
+
+#[test]
+fn a_read_only_output_folder_is_a_clear_error_and_gets_no_partial_files() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("tiny.toml");
+    std::fs::write(
+        &scene,
+        "[time]\nfps = 30.0\nduration_s = 0.1\n[[garment]]\nname = \"cloth\"\npreset = \"silk\"\n\
+         mesh = { grid = { size_m = 0.3, resolution = 4 } }\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    for (path, mode) in [(dir.path(), 0o755), (scene.as_path(), 0o644), (out.as_path(), 0o555)] {
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).unwrap();
+    }
+    let refused = bake_without_write_permission(&scene, &out);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(1), "bad output is bad input: {stderr}");
+    assert!(stderr.contains(out.to_str().unwrap()) && stderr.contains("Permission denied"), "{stderr}");
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0, "nothing half-written is left");
+}
