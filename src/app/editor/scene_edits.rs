@@ -1,0 +1,159 @@
+//! The editor's scene file work: opening, re-resolving after an edit (in the
+//! background, keeping the current scene when that fails), saving.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::channel;
+
+use super::{Editor, Quality, RunState, finest_time_step};
+use crate::app::browse::{Browse, Purpose};
+use crate::app::timeline::Timeline;
+use crate::app::worker::Command;
+use crate::io::atomic::write_file;
+use crate::scene::Scene;
+use crate::scene::file::{MeshSpec, SceneFile};
+
+impl Editor {
+    /// The folder relative paths in the scene are resolved against.
+    pub fn base_dir(&self) -> PathBuf {
+        self.scene.source.as_deref().and_then(Path::parent).map(Path::to_owned).unwrap_or_default()
+    }
+
+    /// Opens the scene file at `path` in the background; the current scene
+    /// stays until it has loaded, and stays when it fails.
+    pub fn open_scene(&mut self, path: PathBuf) {
+        self.start_loading(move || Scene::load(&path).map_err(|e| e.to_string()));
+    }
+
+    /// Applies `edit` to the scene file and resolves it again in the
+    /// background (new garment mesh, body, transform, collision settings); on
+    /// failure the current scene stays and the error is shown.
+    pub fn edit_scene(&mut self, edit: impl FnOnce(&mut SceneFile)) {
+        let mut file = self.scene.to_file();
+        edit(&mut file);
+        let path = self.scene.source.clone().unwrap_or_else(|| PathBuf::from(format!("{}.toml", self.scene.name)));
+        self.start_loading(move || Scene::resolve(file, &path).map_err(|e| e.to_string()));
+        self.dirty = true;
+    }
+
+    /// Replaces the selected garment's mesh with the OBJ at `path`.
+    pub fn use_garment_mesh(&mut self, path: PathBuf) {
+        let g = self.garment;
+        self.edit_scene(|file| {
+            if let Some(spec) = file.garments.get_mut(g) {
+                spec.mesh = MeshSpec::Obj(path);
+            }
+        });
+    }
+
+    /// Replaces the first body with the FBX or motion cache at `path`.
+    pub fn use_body(&mut self, path: PathBuf) {
+        if self.scene.file.bodies.is_empty() {
+            return self.tell("this scene has no body to replace", true);
+        }
+        self.edit_scene(|file| {
+            if let Some(body) = file.bodies.first_mut() {
+                body.file = path;
+            }
+        });
+    }
+
+    /// Drives the first body with the motion of the FBX at `path`.
+    pub fn use_motion(&mut self, path: PathBuf) {
+        if self.scene.file.bodies.is_empty() {
+            return self.tell("this scene has no body to drive", true);
+        }
+        self.edit_scene(|file| {
+            if let Some(body) = file.bodies.first_mut() {
+                body.motion = Some(path);
+            }
+        });
+    }
+
+    /// Opens a file dialog for `purpose`, starting where `current` (a path
+    /// field's text) points, else in the scene's folder.
+    pub fn browse(&mut self, purpose: Purpose, current: &str) {
+        let base = self.base_dir();
+        let current = Path::new(current.trim());
+        let start = if current.as_os_str().is_empty() { base } else { base.join(current) };
+        let folder = if start.is_dir() { start } else { start.parent().map(Path::to_owned).unwrap_or_default() };
+        self.browse = Some(Browse::open(purpose, &folder));
+    }
+
+    pub(super) fn start_loading(&mut self, load: impl FnOnce() -> Result<Scene, String> + Send + 'static) {
+        let (sender, receiver) = channel();
+        std::thread::spawn(move || {
+            let _ = sender.send(load());
+        });
+        self.loading = Some(receiver);
+    }
+
+    /// True while a scene is being loaded.
+    pub fn is_loading(&self) -> bool {
+        self.loading.is_some()
+    }
+
+    /// Waits for a scene being loaded (tests).
+    pub fn finish_loading(&mut self) {
+        if let Some(Ok(result)) = self.loading.take().map(|receiver| receiver.recv()) {
+            self.loaded(result);
+        }
+    }
+
+    pub(super) fn poll_loading(&mut self) {
+        let Some(receiver) = &self.loading else { return };
+        match receiver.try_recv() {
+            Ok(result) => {
+                self.loading = None;
+                self.loaded(result);
+            }
+            Err(std::sync::mpsc::TryRecvError::Empty) => {}
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                self.loading = None;
+                self.tell("loading the scene failed unexpectedly", true);
+            }
+        }
+    }
+
+    pub(super) fn loaded(&mut self, result: Result<Scene, String>) {
+        match result {
+            Ok(scene) => {
+                let opened_other = scene.source != self.scene.source;
+                self.simulated_fabrics = scene.garments.iter().map(|g| g.fabric.clone()).collect();
+                self.base_effort = (scene.steps_per_frame, scene.solver.tolerance);
+                self.time_step_s = finest_time_step(&scene);
+                self.quality = Quality::Balanced;
+                self.timeline = Timeline::new(scene.fps, scene.frame_count);
+                self.scene = scene;
+                self.forget_reference();
+                self.worker.send(Command::Reset(Box::new(self.scene.clone())));
+                self.run = RunState::Idle;
+                self.generation += 1;
+                if opened_other {
+                    self.camera.frame_all();
+                    self.dirty = false;
+                    self.paths.export = format!("out/{}", self.scene.name);
+                }
+                self.fill_paths();
+                if let Some(source) = &self.scene.source {
+                    self.paths.scene = source.display().to_string();
+                }
+            }
+            Err(e) => self.tell(e, true),
+        }
+    }
+
+    /// Writes the scene file, with every current setting, to `path`.
+    pub fn save_scene(&mut self, path: &Path) {
+        let text = match toml::to_string_pretty(&self.scene.to_file()) {
+            Ok(text) => text,
+            Err(e) => return self.tell(format!("cannot write the scene: {e}"), true),
+        };
+        match write_file(path, |out| std::io::Write::write_all(out, text.as_bytes())) {
+            Ok(()) => {
+                self.dirty = false;
+                self.tell(format!("saved {}", path.display()), false);
+            }
+            Err(e) => self.tell(e.to_string(), true),
+        }
+    }
+}
