@@ -119,30 +119,19 @@ impl Checker {
     /// Cloth triangles intersecting a mesh collider's triangles.
     fn mesh_pairs(&self, positions: &[Vector3<f64>], mesh: &MeshCollider, t: f64) -> u32 {
         let world = mesh.world_vertices(t);
-        let mut all = positions.to_vec();
-        all.extend_from_slice(&world);
-        let offset = positions.len() as u32;
-        let mut triangles = self.triangles.clone();
-        triangles.extend(mesh.triangles.iter().map(|t| t.map(|v| v + offset)));
-        let cloth = self.triangles.len();
-        let mut hit = vec![false; cloth];
-        for_each_overlapping_pair(&self.boxes(&all, &triangles), |i, j| {
-            let (c, m) = if i < cloth && j >= cloth {
-                (i, j)
-            } else if j < cloth && i >= cloth {
-                (j, i)
-            } else {
-                return;
-            };
-            if !hit[c]
-                && triangles_intersect(&triangles[c].map(|v| all[v as usize]), &triangles[m].map(|v| all[v as usize]))
-            {
-                hit[c] = true;
+        let cloth_boxes = self.boxes(positions, &self.triangles);
+        let mesh_boxes = self.boxes(&world, &mesh.triangles);
+        let mut hit = vec![false; self.triangles.len()];
+        for_each_overlapping_pair_between(&cloth_boxes, &mesh_boxes, |c, m| {
+            if !hit[c] {
+                let cloth = self.triangles[c].map(|v| positions[v as usize]);
+                hit[c] = triangles_intersect(&cloth, &mesh.triangles[m].map(|v| world[v as usize]));
             }
         });
         hit.iter().filter(|h| **h).count() as u32
     }
 
+    /// Axis-aligned boxes of `triangles` (indices into `positions`).
     fn boxes(&self, positions: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Vec<(Vector3<f64>, Vector3<f64>)> {
         triangles
             .iter()
@@ -322,10 +311,96 @@ fn for_each_overlapping_pair(boxes: &[(Vector3<f64>, Vector3<f64>)], mut f: impl
     }
 }
 
+/// Calls `f(i, j)` once for every box `i` of `first` overlapping a box `j`
+/// of `second` (pairs within one set are never formed), through a uniform
+/// grid over `first` whose cells are about the size of its average box.
+fn for_each_overlapping_pair_between(
+    first: &[(Vector3<f64>, Vector3<f64>)],
+    second: &[(Vector3<f64>, Vector3<f64>)],
+    mut f: impl FnMut(usize, usize),
+) {
+    let Some(all) = first.iter().copied().reduce(|(lo, hi), (l, h)| (lo.inf(&l), hi.sup(&h))) else { return };
+    let overlap = |a: &(Vector3<f64>, Vector3<f64>), b: &(Vector3<f64>, Vector3<f64>)| {
+        (0..3).all(|d| a.0[d] <= b.1[d] && b.0[d] <= a.1[d])
+    };
+    let mean_size = first.iter().map(|(lo, hi)| (hi - lo).amax()).sum::<f64>() / first.len() as f64;
+    let cell = mean_size.max(1e-6) * 2.0;
+    let index = |x: f64| (x / cell).floor() as i64;
+    let range =
+        |(lo, hi): &(Vector3<f64>, Vector3<f64>)| ([0, 1, 2].map(|k| index(lo[k])), [0, 1, 2].map(|k| index(hi[k])));
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    for (i, b) in first.iter().enumerate() {
+        let (lo, hi) = range(b);
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    grid.entry([x, y, z]).or_default().push(i as u32);
+                }
+            }
+        }
+    }
+    // The last box of `second` each box of `first` was offered to, so that a
+    // pair sharing several cells is reported once.
+    let mut offered = vec![usize::MAX; first.len()];
+    for (j, b) in second.iter().enumerate().filter(|(_, b)| overlap(b, &all)) {
+        let (lo, hi) = range(b);
+        let (lo, hi) = ([0, 1, 2].map(|k| lo[k].max(index(all.0[k]))), [0, 1, 2].map(|k| hi[k].min(index(all.1[k]))));
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    for &i in grid.get(&[x, y, z]).map_or(&[][..], Vec::as_slice) {
+                        let i = i as usize;
+                        if offered[i] != j && overlap(&first[i], b) {
+                            offered[i] = j;
+                            f(i, j);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::generate;
+
+    /// Boxes from a deterministic scatter: `count` boxes up to `size` wide in a 1 m cube.
+    fn scattered_boxes(count: usize, size: f64, salt: f64) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+        let unit = |i: usize, k: usize| ((i * 7 + k) as f64 * 12.9898 + salt).sin() * 43_758.545 % 1.0;
+        (0..count)
+            .map(|i| {
+                let lo = Vector3::from_fn(|k, _| unit(i, k).abs());
+                (lo, lo + Vector3::from_fn(|k, _| size * unit(i, k + 3).abs()))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn pairs_between_two_sets_are_exactly_the_overlapping_ones_each_once() {
+        let (first, second) = (scattered_boxes(300, 0.08, 0.3), scattered_boxes(200, 0.15, 0.7));
+        let overlap = |a: &(Vector3<f64>, Vector3<f64>), b: &(Vector3<f64>, Vector3<f64>)| {
+            (0..3).all(|d| a.0[d] <= b.1[d] && b.0[d] <= a.1[d])
+        };
+        let mut expected = Vec::new();
+        for (i, a) in first.iter().enumerate() {
+            for (j, b) in second.iter().enumerate() {
+                if overlap(a, b) {
+                    expected.push((i, j));
+                }
+            }
+        }
+        let mut found = Vec::new();
+        for_each_overlapping_pair_between(&first, &second, |i, j| found.push((i, j)));
+        let reported = found.len();
+        found.sort_unstable();
+        found.dedup();
+        expected.sort_unstable();
+        assert_eq!(found.len(), reported, "no pair twice");
+        assert!(expected.len() > 50, "the scatter overlaps: {}", expected.len());
+        assert_eq!(found, expected);
+    }
     use crate::sim::motion::Placement;
     use nalgebra::Isometry3;
 
