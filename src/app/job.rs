@@ -61,21 +61,21 @@ impl<T: Send + 'static> Job<T> {
         }
         None
     }
-
-    /// Waits for the result (tests and scripted use).
-    pub fn wait(self) -> Result<T, String> {
-        for news in self.news.iter() {
-            if let News::Finished(result) = news {
-                return result;
-            }
-        }
-        Err("the job ended without a result".to_owned())
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Polls `job` until it has finished.
+    fn finished<T: Send + 'static>(job: &mut Job<T>) -> Result<T, String> {
+        loop {
+            if let Some(result) = job.poll() {
+                return result;
+            }
+            std::thread::yield_now();
+        }
+    }
 
     #[test]
     fn a_job_reports_progress_then_its_result_and_stops_when_cancelled() {
@@ -83,19 +83,15 @@ mod tests {
             (1..=3).for_each(progress);
             Ok(42)
         });
-        let result = loop {
-            if let Some(result) = job.poll() {
-                break result;
-            }
-        };
+        let result = finished(&mut job);
         assert_eq!((result, job.done), (Ok(42), 3));
         let (gate, wait) = channel::<()>();
-        let job = Job::start(1, move |stop, _| {
+        let mut job = Job::start(1, move |stop, _| {
             let _ = wait.recv();
             Ok(stop.load(Ordering::Relaxed))
         });
         job.cancel();
         drop(gate);
-        assert_eq!(job.wait(), Err("cancelled".to_owned()), "a cancelled job never reports success");
+        assert_eq!(finished(&mut job), Err("cancelled".to_owned()), "a cancelled job never reports success");
     }
 }

@@ -25,13 +25,11 @@ pub enum Command {
     /// Run frame after frame from the current state, live, until paused or
     /// the scene's last frame.
     Simulate,
-    /// Stop after the frame in progress.
+    /// Stop a live run or a bake after the frame in progress.
     Pause,
     /// Start over from frame 0 and run to the scene's last frame, reporting
     /// progress; frames stream back as they finish.
     Bake,
-    /// Stop a bake or a live run after the frame in progress.
-    Cancel,
     /// Give garment `garment` a new fabric from the next step on (ramped).
     SetFabric {
         /// Garment index, scene order.
@@ -200,7 +198,7 @@ impl WorkerLoop {
             }
             Command::Simulate if self.baker.is_some() => self.run = Run::Live,
             Command::Simulate => self.emit(Event::Refused("the scene could not be simulated".into())),
-            Command::Pause | Command::Cancel => {
+            Command::Pause => {
                 if self.run != Run::Idle {
                     self.run = Run::Idle;
                     self.emit(Event::Stopped(Stop::ByUser));

@@ -132,7 +132,7 @@ impl Checker {
     }
 
     /// Axis-aligned boxes of `triangles` (indices into `positions`).
-    fn boxes(&self, positions: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    fn boxes(&self, positions: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Vec<BoxBounds> {
         triangles
             .iter()
             .map(|t| {
@@ -268,42 +268,67 @@ fn tessellate(shape: &Shape) -> Option<(Vec<Vector3<f64>>, Vec<[u32; 3]>)> {
     }
 }
 
-/// Calls `f(i, j)` (i < j) once for every pair of boxes that overlap, through
-/// a uniform grid whose cells are about the size of an average box.
-fn for_each_overlapping_pair(boxes: &[(Vector3<f64>, Vector3<f64>)], mut f: impl FnMut(usize, usize)) {
+/// An axis-aligned box: lowest and highest corner, m.
+type BoxBounds = (Vector3<f64>, Vector3<f64>);
+
+/// True when the boxes share a point.
+fn overlap(a: &BoxBounds, b: &BoxBounds) -> bool {
+    (0..3).all(|d| a.0[d] <= b.1[d] && b.0[d] <= a.1[d])
+}
+
+/// A uniform grid over boxes whose cells are about twice an average box:
+/// each cell lists the boxes that reach into it.
+struct BoxGrid {
+    cell: f64,
+    members: HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl BoxGrid {
+    /// The grid of `boxes` (not empty).
+    fn new(boxes: &[BoxBounds]) -> BoxGrid {
+        let mean_size = boxes.iter().map(|(lo, hi)| (hi - lo).amax()).sum::<f64>() / boxes.len().max(1) as f64;
+        let mut grid = BoxGrid { cell: mean_size.max(1e-6) * 2.0, members: HashMap::new() };
+        for (i, b) in boxes.iter().enumerate() {
+            let (lo, hi) = grid.range(b);
+            for cell in cells(lo, hi) {
+                grid.members.entry(cell).or_default().push(i as u32);
+            }
+        }
+        grid
+    }
+
+    /// The lowest and highest cell a box reaches into.
+    fn range(&self, (lo, hi): &BoxBounds) -> ([i64; 3], [i64; 3]) {
+        let index = |x: f64| (x / self.cell).floor() as i64;
+        ([0, 1, 2].map(|k| index(lo[k])), [0, 1, 2].map(|k| index(hi[k])))
+    }
+
+    /// The boxes listed in `cell`.
+    fn members(&self, cell: &[i64; 3]) -> &[u32] {
+        self.members.get(cell).map_or(&[], Vec::as_slice)
+    }
+}
+
+/// Every cell from `lo` to `hi` (both included).
+fn cells(lo: [i64; 3], hi: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
+    (lo[0]..=hi[0]).flat_map(move |x| (lo[1]..=hi[1]).flat_map(move |y| (lo[2]..=hi[2]).map(move |z| [x, y, z])))
+}
+
+/// Calls `f(i, j)` (i < j) once for every pair of boxes that overlap.
+fn for_each_overlapping_pair(boxes: &[BoxBounds], mut f: impl FnMut(usize, usize)) {
     if boxes.is_empty() {
         return;
     }
-    let mean_size = boxes.iter().map(|(lo, hi)| (hi - lo).amax()).sum::<f64>() / boxes.len() as f64;
-    let cell = mean_size.max(1e-6) * 2.0;
-    let index = |x: f64| (x / cell).floor() as i64;
-    let range =
-        |(lo, hi): &(Vector3<f64>, Vector3<f64>)| ([0, 1, 2].map(|k| index(lo[k])), [0, 1, 2].map(|k| index(hi[k])));
-    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    for (i, b) in boxes.iter().enumerate() {
-        let (lo, hi) = range(b);
-        for x in lo[0]..=hi[0] {
-            for y in lo[1]..=hi[1] {
-                for z in lo[2]..=hi[2] {
-                    grid.entry([x, y, z]).or_default().push(i as u32);
-                }
-            }
-        }
-    }
-    let mut cells: Vec<(&[i64; 3], &Vec<u32>)> = grid.iter().collect();
-    cells.sort_unstable_by_key(|(c, _)| **c);
-    for (cell_index, members) in cells {
+    let grid = BoxGrid::new(boxes);
+    let mut occupied: Vec<(&[i64; 3], &Vec<u32>)> = grid.members.iter().collect();
+    occupied.sort_unstable_by_key(|(c, _)| **c);
+    for (cell, members) in occupied {
         for (k, &i) in members.iter().enumerate() {
             for &j in &members[k + 1..] {
                 let (a, b) = (&boxes[i as usize], &boxes[j as usize]);
-                let overlap = (0..3).all(|d| a.0[d] <= b.1[d] && b.0[d] <= a.1[d]);
-                if !overlap {
-                    continue;
-                }
                 // Report each pair only in the lowest cell both boxes occupy.
-                let (ra, rb) = (range(a), range(b));
-                let first = [0, 1, 2].map(|d| ra.0[d].max(rb.0[d]));
-                if first == *cell_index {
+                let (ra, rb) = (grid.range(a), grid.range(b));
+                if overlap(a, b) && [0, 1, 2].map(|d| ra.0[d].max(rb.0[d])) == *cell {
                     f(i.min(j) as usize, i.max(j) as usize);
                 }
             }
@@ -312,49 +337,24 @@ fn for_each_overlapping_pair(boxes: &[(Vector3<f64>, Vector3<f64>)], mut f: impl
 }
 
 /// Calls `f(i, j)` once for every box `i` of `first` overlapping a box `j`
-/// of `second` (pairs within one set are never formed), through a uniform
-/// grid over `first` whose cells are about the size of its average box.
-fn for_each_overlapping_pair_between(
-    first: &[(Vector3<f64>, Vector3<f64>)],
-    second: &[(Vector3<f64>, Vector3<f64>)],
-    mut f: impl FnMut(usize, usize),
-) {
+/// of `second` (pairs within one set are never formed), through a grid over
+/// `first` alone.
+fn for_each_overlapping_pair_between(first: &[BoxBounds], second: &[BoxBounds], mut f: impl FnMut(usize, usize)) {
     let Some(all) = first.iter().copied().reduce(|(lo, hi), (l, h)| (lo.inf(&l), hi.sup(&h))) else { return };
-    let overlap = |a: &(Vector3<f64>, Vector3<f64>), b: &(Vector3<f64>, Vector3<f64>)| {
-        (0..3).all(|d| a.0[d] <= b.1[d] && b.0[d] <= a.1[d])
-    };
-    let mean_size = first.iter().map(|(lo, hi)| (hi - lo).amax()).sum::<f64>() / first.len() as f64;
-    let cell = mean_size.max(1e-6) * 2.0;
-    let index = |x: f64| (x / cell).floor() as i64;
-    let range =
-        |(lo, hi): &(Vector3<f64>, Vector3<f64>)| ([0, 1, 2].map(|k| index(lo[k])), [0, 1, 2].map(|k| index(hi[k])));
-    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    for (i, b) in first.iter().enumerate() {
-        let (lo, hi) = range(b);
-        for x in lo[0]..=hi[0] {
-            for y in lo[1]..=hi[1] {
-                for z in lo[2]..=hi[2] {
-                    grid.entry([x, y, z]).or_default().push(i as u32);
-                }
-            }
-        }
-    }
+    let grid = BoxGrid::new(first);
+    let (all_lo, all_hi) = grid.range(&all);
     // The last box of `second` each box of `first` was offered to, so that a
     // pair sharing several cells is reported once.
     let mut offered = vec![usize::MAX; first.len()];
     for (j, b) in second.iter().enumerate().filter(|(_, b)| overlap(b, &all)) {
-        let (lo, hi) = range(b);
-        let (lo, hi) = ([0, 1, 2].map(|k| lo[k].max(index(all.0[k]))), [0, 1, 2].map(|k| hi[k].min(index(all.1[k]))));
-        for x in lo[0]..=hi[0] {
-            for y in lo[1]..=hi[1] {
-                for z in lo[2]..=hi[2] {
-                    for &i in grid.get(&[x, y, z]).map_or(&[][..], Vec::as_slice) {
-                        let i = i as usize;
-                        if offered[i] != j && overlap(&first[i], b) {
-                            offered[i] = j;
-                            f(i, j);
-                        }
-                    }
+        let (lo, hi) = grid.range(b);
+        let (lo, hi) = ([0, 1, 2].map(|k| lo[k].max(all_lo[k])), [0, 1, 2].map(|k| hi[k].min(all_hi[k])));
+        for cell in cells(lo, hi) {
+            for &i in grid.members(&cell) {
+                let i = i as usize;
+                if offered[i] != j && overlap(&first[i], b) {
+                    offered[i] = j;
+                    f(i, j);
                 }
             }
         }
@@ -367,7 +367,7 @@ mod tests {
     use crate::mesh::generate;
 
     /// Boxes from a deterministic scatter: `count` boxes up to `size` wide in a 1 m cube.
-    fn scattered_boxes(count: usize, size: f64, salt: f64) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    fn scattered_boxes(count: usize, size: f64, salt: f64) -> Vec<BoxBounds> {
         let unit = |i: usize, k: usize| ((i * 7 + k) as f64 * 12.9898 + salt).sin() * 43_758.545 % 1.0;
         (0..count)
             .map(|i| {
@@ -380,9 +380,6 @@ mod tests {
     #[test]
     fn pairs_between_two_sets_are_exactly_the_overlapping_ones_each_once() {
         let (first, second) = (scattered_boxes(300, 0.08, 0.3), scattered_boxes(200, 0.15, 0.7));
-        let overlap = |a: &(Vector3<f64>, Vector3<f64>), b: &(Vector3<f64>, Vector3<f64>)| {
-            (0..3).all(|d| a.0[d] <= b.1[d] && b.0[d] <= a.1[d])
-        };
         let mut expected = Vec::new();
         for (i, a) in first.iter().enumerate() {
             for (j, b) in second.iter().enumerate() {

@@ -103,19 +103,25 @@ impl CollisionPipeline {
         ws.jobs.clear();
         // With Scope::Moved only pairs holding a moved cloth triangle are
         // wanted: the queries start from those triangles (and obstacle parts
-        // near them), and give the pairs a full query would, in its order.
-        let moved_triangles: Option<Vec<bool>> = (scope == Scope::Moved)
-            .then(|| self.triangles.iter().map(|t| t.iter().any(|&v| ws.moved[v as usize])).collect());
-        let near = match &moved_triangles {
-            Some(moved) => {
-                ws.triangle_box.iter().zip(moved).filter(|(_, m)| **m).fold(Box3::empty(), |all, (b, _)| all.union(b))
-            }
-            None => ws.triangle_box.iter().fold(Box3::empty(), |all, b| all.union(b)),
-        };
+        // near them), and give the pairs a full query would, in its order,
+        // after the kept contacts' feature pairs.
+        let moved = scope == Scope::Moved;
+        ws.moved_triangle.clear();
+        if moved {
+            let points = &ws.moved;
+            ws.moved_triangle.extend(self.triangles.iter().map(|t| t.iter().any(|&v| points[v as usize])));
+            ws.jobs.extend((0..ws.kept.len() as u32).map(Job::Again));
+        }
+        let near = ws
+            .triangle_box
+            .iter()
+            .enumerate()
+            .filter(|&(t, _)| !moved || ws.moved_triangle[t])
+            .fold(Box3::empty(), |all, (_, b)| all.union(b));
         if self.self_collision.iter().any(|&s| s) || self.self_collision.len() > 1 {
-            match &moved_triangles {
-                Some(moved) => moved_pairs(bvh, &ws.triangle_box, moved, &mut ws.hits, &mut ws.pairs),
-                None => bvh.self_pairs(&mut ws.pairs),
+            match moved {
+                true => moved_pairs(bvh, &ws.triangle_box, &ws.moved_triangle, &mut ws.hits, &mut ws.pairs),
+                false => bvh.self_pairs(&mut ws.pairs),
             }
             let (garment, self_collision) = (&self.triangle_garment, &self.self_collision);
             ws.jobs.extend(ws.pairs.iter().filter_map(|&(a, b)| {
@@ -149,13 +155,13 @@ impl CollisionPipeline {
                 ws.jobs.extend(ws.hits.iter().map(|&h| Job::Edge(h, e as u32)));
             }
         }
-        if let Some(moved) = &moved_triangles {
+        if moved {
+            let moved_triangle = &ws.moved_triangle;
             ws.jobs.retain(|job| match *job {
-                Job::Cloth(a, b) => moved[a as usize] || moved[b as usize],
-                Job::Mesh(t, _) | Job::Vertex(t, _) | Job::Edge(t, _) => moved[t as usize],
+                Job::Cloth(a, b) => moved_triangle[a as usize] || moved_triangle[b as usize],
+                Job::Mesh(t, _) | Job::Vertex(t, _) | Job::Edge(t, _) => moved_triangle[t as usize],
                 Job::Again(_) => true,
             });
-            ws.jobs.splice(0..0, (0..ws.kept.len() as u32).map(Job::Again));
             debug_assert!(o.is_empty() || !ws.moved[n..].iter().any(|&m| m), "obstacles never move in a response");
         }
         ws.moved.fill(false);

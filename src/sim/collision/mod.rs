@@ -197,6 +197,8 @@ struct Workspace {
     contacts: Vec<Contact>,
     /// Contacts of the last detection whose points have not moved since.
     kept: Vec<Contact>,
+    /// Per cloth triangle, whether one of its points moved (Scope::Moved).
+    moved_triangle: Vec<bool>,
     /// End positions before the pass hook, to see which it moved.
     before_hook: Vec<Vector3<f64>>,
     /// Keys of a detection's contacts.
