@@ -13,22 +13,31 @@ use super::{Part, Surface, TriMesh};
 /// quads are recorded so that both diagonals become shear springs. Vertex
 /// `row * resolution + col` sits at `x = -size/2 + col·h`, `z = -size/2 + row·h`.
 pub fn grid(size_m: f64, resolution: usize) -> TriMesh {
-    let n = resolution;
-    let spacing = size_m / (n - 1) as f64;
-    let index = |row: usize, col: usize| (row * n + col) as u32;
-    let positions = (0..n)
+    rectangle(size_m, size_m, resolution, resolution)
+}
+
+/// A rectangular cloth `length_m` along X by `width_m` along Z with `columns`
+/// vertices along X and `rows` along Z, flat in the XZ plane, centred on the
+/// origin, front side facing +Y; triangulated like [`grid`]. Vertex
+/// `row * columns + col` sits at `x = -length/2 + col·length/(columns−1)`,
+/// `z = -width/2 + row·width/(rows−1)`.
+pub fn rectangle(length_m: f64, width_m: f64, columns: usize, rows: usize) -> TriMesh {
+    let (dx, dz) = (length_m / (columns - 1) as f64, width_m / (rows - 1) as f64);
+    let index = |row: usize, col: usize| (row * columns + col) as u32;
+    let positions = (0..rows)
         .flat_map(|row| {
-            (0..n).map(move |col| {
-                Vector3::new(-0.5 * size_m + col as f64 * spacing, 0.0, -0.5 * size_m + row as f64 * spacing)
-            })
+            (0..columns)
+                .map(move |col| Vector3::new(-0.5 * length_m + col as f64 * dx, 0.0, -0.5 * width_m + row as f64 * dz))
         })
         .collect();
-    let uvs = (0..n)
-        .flat_map(|row| (0..n).map(move |col| [col as f32 / (n - 1) as f32, row as f32 / (n - 1) as f32]))
+    let uvs = (0..rows)
+        .flat_map(|row| {
+            (0..columns).map(move |col| [col as f32 / (columns - 1) as f32, row as f32 / (rows - 1) as f32])
+        })
         .collect();
-    let mut quads = Vec::with_capacity((n - 1) * (n - 1));
-    for row in 0..n - 1 {
-        for col in 0..n - 1 {
+    let mut quads = Vec::with_capacity((rows - 1) * (columns - 1));
+    for row in 0..rows - 1 {
+        for col in 0..columns - 1 {
             // Counter-clockwise seen from +Y: (row, col) → (row+1, col) → (row+1, col+1) → (row, col+1).
             let corners = [index(row, col), index(row + 1, col), index(row + 1, col + 1), index(row, col + 1)];
             let quad = if (row + col) % 2 == 0 { corners } else { [corners[1], corners[2], corners[3], corners[0]] };
@@ -36,6 +45,32 @@ pub fn grid(size_m: f64, resolution: usize) -> TriMesh {
         }
     }
     from_quads(positions, quads, uvs, None, "grid")
+}
+
+/// A round cloth of radius `radius_m` cut from a square grid of `across`
+/// vertices over the diameter (the threads of a woven run along X and Z):
+/// the grid's quads whose four corners lie within the radius, flat in the XZ
+/// plane, centred on the origin, front side facing +Y, triangulated like
+/// [`grid`]. Vertices keep the grid's row-major order.
+pub fn disc(radius_m: f64, across: usize) -> TriMesh {
+    let square = grid(2.0 * radius_m, across);
+    let inside = |v: u32| square.positions[v as usize].xz().norm() <= radius_m * (1.0 + 1e-12);
+    let kept: Vec<[u32; 4]> = square.quads.iter().filter(|q| q.iter().all(|&v| inside(v))).copied().collect();
+    let mut new_index = vec![u32::MAX; square.positions.len()];
+    for &v in kept.iter().flatten() {
+        new_index[v as usize] = 0;
+    }
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    for (old, slot) in new_index.iter_mut().enumerate() {
+        if *slot == 0 {
+            *slot = positions.len() as u32;
+            positions.push(square.positions[old]);
+            uvs.push(square.surface.uvs[old]);
+        }
+    }
+    let quads = kept.iter().map(|q| q.map(|v| new_index[v as usize])).collect();
+    from_quads(positions, quads, uvs, None, "disc")
 }
 
 /// An open tube of radius `radius_m` and length `length_m` along the X axis,
@@ -131,6 +166,35 @@ mod tests {
         let diagonal = |q: [u32; 4]| [q[0].min(q[2]), q[0].max(q[2])];
         assert_eq!(diagonal(mesh.quads[0]), [0, 4]);
         assert_eq!(diagonal(mesh.quads[1]), [2, 4]);
+    }
+
+    #[test]
+    fn rectangle_spans_its_sides_with_its_counts() {
+        let mesh = rectangle(0.2, 0.05, 9, 3);
+        assert_eq!(mesh.vertex_count(), 27);
+        assert_eq!(mesh.triangles.len(), 2 * 8 * 2);
+        assert!((mesh.area() - 0.2 * 0.05).abs() < 1e-15);
+        assert_eq!(mesh.positions[0], Vector3::new(-0.1, 0.0, -0.025));
+        assert_eq!(mesh.positions[26], Vector3::new(0.1, 0.0, 0.025));
+    }
+
+    #[test]
+    fn disc_is_the_grid_cut_round() {
+        let (radius, across) = (0.15, 41);
+        let mesh = disc(radius, across);
+        let spacing = 2.0 * radius / (across - 1) as f64;
+        assert!(mesh.positions.iter().all(|p| p.xz().norm() <= radius + 1e-12));
+        // Every grid cell well inside the circle is kept, none outside it.
+        let inner = std::f64::consts::PI * (radius - 1.5 * spacing).powi(2);
+        let outer = std::f64::consts::PI * radius * radius;
+        assert!(inner < mesh.area() && mesh.area() < outer, "{}", mesh.area());
+        assert_eq!(mesh.triangles.len(), 2 * mesh.quads.len());
+        for t in 0..mesh.triangles.len() {
+            let [a, b, c] = mesh.triangle_corners(t);
+            assert!((b - a).cross(&(c - a)).y > 0.0, "triangle {t} faces down");
+        }
+        let topo = Topology::new(&mesh.triangles);
+        assert_eq!(topo.inconsistent_windings, 0);
     }
 
     #[test]
