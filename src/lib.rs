@@ -7,13 +7,14 @@
 //! settings give the same bake, bit for bit, at any thread count.
 //!
 //! Layers (arrows point down): the `drape` binary → [`app`] (the editor),
-//! [`bench`], [`bake`] →
+//! [`bench`], [`bake`], [`fabric_lab`] →
 //! [`scene`] → [`io`], [`sim`] → [`mesh`].
 
 pub mod app;
 pub mod bake;
 pub mod bench;
 pub mod body;
+pub mod fabric_lab;
 pub mod io;
 pub mod mesh;
 pub mod metrics;

@@ -14,6 +14,7 @@ use drape::bake::output::BakeFolder;
 use drape::bake::summary::BakeSummary;
 use drape::bake::{self, BakeError};
 use drape::bench;
+use drape::fabric_lab;
 use drape::metrics::sequence::check_sequence;
 use drape::scene::Scene;
 use drape::scene::summary::summary;
@@ -152,6 +153,58 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// The virtual fabric lab: test presets as a fabric kit would, or fit a
+    /// preset to measurements.
+    Fabric {
+        /// Test presets, or fit one.
+        #[command(subcommand)]
+        command: FabricCommand,
+    },
+}
+
+/// The virtual fabric lab.
+#[derive(Subcommand)]
+enum FabricCommand {
+    /// Run the virtual cantilever (ASTM D1388) and Cusick drape tests on
+    /// presets: bending length, flexural rigidity, drape coefficient, nodes.
+    /// Exit code 3 when a bending length misses its target by more than 5 %.
+    Test {
+        /// Built-in preset names or preset files (default: every built-in preset).
+        presets: Vec<String>,
+        /// Skip the drape test (the slower one).
+        #[arg(long)]
+        no_drape: bool,
+        /// Vertices across the drape specimen (41: 7.5 mm elements).
+        #[arg(long, default_value_t = drape::fabric_lab::cusick::STANDARD_ACROSS)]
+        across: usize,
+        /// Write each drape test's shadow, seen from above, to DIR/<preset>_drape.png.
+        #[arg(long, value_name = "DIR")]
+        pictures: Option<PathBuf>,
+    },
+    /// Fit bend (and shear) parameters to measured values and write a preset.
+    Fit {
+        /// Measured cantilever bending length, cm.
+        #[arg(long)]
+        bending_length: f64,
+        /// Measured area density, g/m².
+        #[arg(long)]
+        area_density: f64,
+        /// Measured Cusick drape coefficient (0..1): fits the shear stiffness too.
+        #[arg(long)]
+        drape_coefficient: Option<f64>,
+        /// Preset the other parameters come from (name or file).
+        #[arg(long, default_value = "cotton")]
+        base: String,
+        /// Name of the new preset (default: the output file's stem).
+        #[arg(long)]
+        name: Option<String>,
+        /// Vertices across the drape specimens (41: 7.5 mm elements).
+        #[arg(long, default_value_t = drape::fabric_lab::cusick::STANDARD_ACROSS)]
+        across: usize,
+        /// The preset file to write (TOML).
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 /// Sweeps of `drape bench`.
@@ -220,6 +273,19 @@ fn main() -> ExitCode {
             run_accuracy(&scene, &steps, &tolerances, frames, out.as_deref())
         }
         Command::Bench { sweep: None, suite, frames, out } => run_bench(suite, frames, out.as_deref()),
+        Command::Fabric { command: FabricCommand::Test { presets, no_drape, across, pictures } } => {
+            run_fabric_test(&presets, !no_drape, across, pictures.as_deref())
+        }
+        Command::Fabric {
+            command: FabricCommand::Fit { bending_length, area_density, drape_coefficient, base, name, across, out },
+        } => {
+            let measured = fabric_lab::fit::Measured {
+                bending_length_cm: bending_length,
+                area_density_gsm: area_density,
+                drape_coefficient,
+            };
+            run_fabric_fit(&measured, &base, name.as_deref(), across, &out)
+        }
         Command::Body { body, motion } => run_body(&body, motion.as_deref()),
         Command::ImportMotion { body, motion, fps, cycle, out } => {
             run_import_motion(&body, motion.as_deref(), fps, cycle, &out)
@@ -638,6 +704,80 @@ fn run_accuracy(
         bench::accuracy::write_results(dir, &points).map_err(input)?;
         println!("wrote {}", dir.display());
     }
+    Ok(())
+}
+
+fn run_fabric_test(presets: &[String], drape: bool, across: usize, pictures: Option<&Path>) -> Result<(), Failure> {
+    let names: Vec<String> = if presets.is_empty() {
+        drape::scene::preset::Preset::builtin_names().map(str::to_owned).collect()
+    } else {
+        presets.to_vec()
+    };
+    let mut reports = Vec::new();
+    for name in &names {
+        let preset = drape::scene::preset::Preset::resolve(name, Path::new(""), &toml::Table::new()).map_err(input)?;
+        eprintln!("testing {} ...", preset.name);
+        let lab = |e: fabric_lab::LabError| Failure::Input(format!("{}: {e}", preset.name));
+        let cantilever = fabric_lab::cantilever::cantilever_test(&preset.fabric, fabric_lab::fit::CANTILEVER_SEGMENTS)
+            .map_err(lab)?;
+        let cusick =
+            if drape { Some(fabric_lab::cusick::drape_test(&preset.fabric, across).map_err(lab)?) } else { None };
+        if let (Some(dir), Some(test)) = (pictures, &cusick) {
+            write_drape_picture(dir, &preset.name, test)?;
+        }
+        let report = fabric_lab::report::FabricReport { preset, cantilever, cusick };
+        print!("{}", report.text());
+        reports.push(report);
+    }
+    if reports.len() > 1 {
+        println!("\n{}", fabric_lab::report::markdown_table(&reports));
+    }
+    let failed: Vec<&str> = reports.iter().filter(|r| !r.passes()).map(|r| r.preset.name.as_str()).collect();
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(Failure::Found(format!("bending length off its target by more than 5 %: {}", failed.join(", "))))
+    }
+}
+
+/// Writes `test`'s shadow to DIR/<name>_drape.png.
+fn write_drape_picture(dir: &Path, name: &str, test: &fabric_lab::cusick::Cusick) -> Result<(), Failure> {
+    std::fs::create_dir_all(dir).map_err(|e| Failure::Input(format!("{}: {e}", dir.display())))?;
+    let path = dir.join(format!("{name}_drape.png"));
+    let picture = test.shadow.picture(fabric_lab::cusick::DISC_RADIUS_M);
+    drape::io::atomic::write_file(&path, |w| {
+        picture.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other)
+    })
+    .map_err(input)?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
+
+fn run_fabric_fit(
+    measured: &fabric_lab::fit::Measured,
+    base: &str,
+    name: Option<&str>,
+    across: usize,
+    out: &Path,
+) -> Result<(), Failure> {
+    let base = drape::scene::preset::Preset::resolve(base, Path::new(""), &toml::Table::new()).map_err(input)?;
+    let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("fitted");
+    let fitted = fabric_lab::fit::fit(&base, name.unwrap_or(stem), measured, across, |line| eprintln!("{line}"))
+        .map_err(input)?;
+    drape::io::atomic::write_file(out, |w| std::io::Write::write_all(w, fitted.preset.to_toml().as_bytes()))
+        .map_err(input)?;
+    let report = fabric_lab::report::FabricReport {
+        preset: fitted.preset.clone(),
+        cantilever: fitted.cantilever,
+        cusick: fitted.cusick,
+    };
+    print!("{}", report.text());
+    println!(
+        "bend stiffness {:.4e} N·m, shear stiffness {:.4} N/m; wrote {}",
+        fitted.preset.fabric.bend_stiffness_n_m,
+        fitted.preset.fabric.shear_stiffness_n_per_m,
+        out.display()
+    );
     Ok(())
 }
 

@@ -49,6 +49,9 @@ pub struct About {
     /// Cantilever bending length (ASTM D1388) the preset is tuned to, cm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_bending_length_cm: Option<f64>,
+    /// Cusick drape coefficient the preset is tuned to, unitless (0..1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_drape_coefficient: Option<f64>,
 }
 
 /// Surface appearance for rendering and material export.
