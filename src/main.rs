@@ -143,7 +143,8 @@ enum Command {
         #[command(subcommand)]
         sweep: Option<BenchSweep>,
         /// Which cases: the solver on drape_sphere, the collision scenes, the
-        /// strain limits (projection, clamping, off), or all.
+        /// strain limits (projection, clamping, off), drape against Blender's
+        /// cloth (peers; needs bpy), or all.
         #[arg(long, value_enum, default_value = "core")]
         suite: bench::Suite,
         /// Frames per case (default: each scene's full range).
@@ -782,13 +783,28 @@ fn run_fabric_fit(
 }
 
 fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {
-    let results =
-        bench::run(suite, frames, |line| eprintln!("{line}")).map_err(|e| Failure::Internal(e.to_string()))?;
-    println!("{}", bench::markdown_table(&results));
-    println!("{}", bench::collision_table(&results));
-    println!("{}", bench::constraints_table(&results));
+    let log = |line: &str| eprintln!("{line}");
+    let results = bench::run(suite, frames, log).map_err(|e| Failure::Internal(e.to_string()))?;
+    if !results.is_empty() {
+        println!("{}", bench::markdown_table(&results));
+        println!("{}", bench::collision_table(&results));
+        println!("{}", bench::constraints_table(&results));
+        if let Some(dir) = out {
+            bench::write_results(dir, &results).map_err(input)?;
+        }
+    }
+    if matches!(suite, bench::Suite::Peers | bench::Suite::All) {
+        // Blender's frames are kept for inspection: in --out, or the system's temporary folder.
+        let dir = out.map_or_else(|| std::env::temp_dir().join("drape-peers"), |d| d.join("peers"));
+        let comparisons = bench::peers::compare(&dir, frames, log).map_err(|e| Failure::Internal(e.to_string()))?;
+        let table = bench::peers::markdown_table(&comparisons);
+        println!("{table}");
+        if out.is_some() {
+            let path = dir.join("peers.md");
+            drape::io::atomic::write_file(&path, |w| std::io::Write::write_all(w, table.as_bytes())).map_err(input)?;
+        }
+    }
     if let Some(dir) = out {
-        bench::write_results(dir, &results).map_err(input)?;
         println!("wrote {}", dir.display());
     }
     Ok(())

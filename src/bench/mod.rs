@@ -2,6 +2,7 @@
 //! always reported with the strain it reached, as CSV and Markdown.
 
 pub mod accuracy;
+pub mod peers;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -32,6 +33,12 @@ pub enum BenchError {
     /// A case failed.
     #[error(transparent)]
     Bake(#[from] BakeError),
+    /// A peer's frames could not be read.
+    #[error(transparent)]
+    Sequence(#[from] crate::metrics::sequence::SequenceError),
+    /// The peer comparison could not run.
+    #[error("peer comparison: {0}")]
+    Peer(String),
 }
 
 /// Path of a standard scene: `assets/scenes/<name>.toml`, looked up in the
@@ -52,6 +59,9 @@ pub enum Suite {
     /// `drape_sphere`, `stiff` and `large_step` with the strain limits
     /// enforced by fast projection, by per-edge clamping, and not at all.
     Constraints,
+    /// drape against Blender's cloth (`benches/peers/blender_cloth.py`, needs
+    /// `bpy`) on `drape_sphere` and `drape_table`.
+    Peers,
     /// All of them.
     All,
 }
@@ -125,6 +135,7 @@ fn cases(suite: Suite) -> Vec<Case> {
         Suite::Core => core.to_vec(),
         Suite::Collisions => COLLISION_CASES.to_vec(),
         Suite::Constraints => constraints.collect(),
+        Suite::Peers => Vec::new(),
         Suite::All => core.into_iter().chain(COLLISION_CASES).chain(constraints).collect(),
     }
 }
