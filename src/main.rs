@@ -702,7 +702,7 @@ fn run_accuracy(
         .map_err(|e| Failure::Internal(e.to_string()))?;
     println!("{}", bench::accuracy::markdown_table(&points));
     if let Some(dir) = out {
-        bench::accuracy::write_results(dir, &points).map_err(input)?;
+        bench::accuracy::write_results(dir, &scene.name, &points).map_err(input)?;
         println!("wrote {}", dir.display());
     }
     Ok(())

@@ -14,6 +14,7 @@ use std::sync::atomic::AtomicBool;
 
 use nalgebra::Vector3;
 
+use super::plots::PlotError;
 use crate::bake::summary::BakeSummary;
 use crate::bake::{self, BakeError};
 use crate::io::atomic::{WriteError, write_file};
@@ -190,11 +191,14 @@ pub fn markdown_table(points: &[AccuracyPoint]) -> String {
     out
 }
 
-/// Writes `accuracy.csv` and `accuracy.md` into `dir`.
-pub fn write_results(dir: &std::path::Path, points: &[AccuracyPoint]) -> Result<(), WriteError> {
+/// Writes `accuracy.csv`, `accuracy.md` and the `speed_against_error`
+/// chart (PNG and SVG) of `scene`'s sweep into `dir`.
+pub fn write_results(dir: &std::path::Path, scene: &str, points: &[AccuracyPoint]) -> Result<(), PlotError> {
     std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
     write_file(&dir.join("accuracy.csv"), |w| std::io::Write::write_all(w, csv(points).as_bytes()))?;
-    write_file(&dir.join("accuracy.md"), |w| std::io::Write::write_all(w, markdown_table(points).as_bytes()))
+    let report = format!("{}\n![speed against error](speed_against_error.png)\n", markdown_table(points));
+    write_file(&dir.join("accuracy.md"), |w| std::io::Write::write_all(w, report.as_bytes()))?;
+    super::plots::speed_against_error(dir, &[(scene.to_owned(), points.to_vec())])
 }
 
 /// The sweep as CSV, one row per point.

@@ -3,6 +3,7 @@
 
 pub mod accuracy;
 pub mod peers;
+pub mod plots;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -293,10 +294,18 @@ pub fn csv(results: &[BenchResult]) -> String {
     out
 }
 
-/// Writes `bench.csv` and `bench.md` into `dir`.
-pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), WriteError> {
+/// Writes `bench.csv`, `bench.md` and the charts (`strain_over_time` and
+/// `time_per_stage`, PNG and SVG) into `dir`.
+pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), plots::PlotError> {
     std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
     write_file(&dir.join("bench.csv"), |w| std::io::Write::write_all(w, csv(results).as_bytes()))?;
-    let tables = format!("{}\n{}\n{}", markdown_table(results), collision_table(results), constraints_table(results));
-    write_file(&dir.join("bench.md"), |w| std::io::Write::write_all(w, tables.as_bytes()))
+    let tables = format!(
+        "{}\n{}\n{}\n![strain over time](strain_over_time.png)\n\n![time per stage](time_per_stage.png)\n",
+        markdown_table(results),
+        collision_table(results),
+        constraints_table(results)
+    );
+    write_file(&dir.join("bench.md"), |w| std::io::Write::write_all(w, tables.as_bytes()))?;
+    plots::strain_over_time(dir, results)?;
+    plots::time_per_stage(dir, results)
 }

@@ -1,0 +1,85 @@
+//! The benchmark harness on a tiny scene: what it writes, and that its error
+//! metric measures what it says.
+
+use drape::bench::accuracy::{self, errors, rest_diagonal, trajectory};
+use drape::bench::{BenchResult, measure, standard_scene, write_results};
+use drape::scene::Scene;
+use drape::scene::file::MeshSpec;
+
+/// `drape_sphere` at 12 × 12 vertices, the first `frames` frames of it.
+fn tiny_drape_sphere() -> Scene {
+    Scene::load_edited(&standard_scene("drape_sphere"), |file| {
+        if let Some(MeshSpec::Grid { resolution, .. }) = file.garments.first_mut().map(|g| &mut g.mesh) {
+            *resolution = 12;
+        }
+    })
+    .unwrap()
+}
+
+#[test]
+fn bench_writes_a_full_csv_the_report_and_non_empty_charts() {
+    let scene = tiny_drape_sphere();
+    let summary = measure(&scene, Some(12)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    write_results(dir.path(), &[BenchResult { case: "tiny".into(), summary }]).unwrap();
+
+    let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 2, "{csv}");
+    let columns = lines[0].split(',').count();
+    assert_eq!(lines[1].split(',').count(), columns, "every column filled: {csv}");
+    for column in ["ms_per_frame_median", "max_strain", "intersections_total", "cg_iterations_per_step", "solve_ms"] {
+        assert!(lines[0].split(',').any(|c| c == column), "{column} missing: {}", lines[0]);
+    }
+    let report = std::fs::read_to_string(dir.path().join("bench.md")).unwrap();
+    assert!(report.contains("| tiny |") && report.contains("strain_over_time.png"), "{report}");
+    for chart in ["strain_over_time", "time_per_stage"] {
+        let png = image::open(dir.path().join(format!("{chart}.png"))).unwrap().to_luma8();
+        // Something besides the white background is drawn (axes, lines, text).
+        let inked = png.pixels().filter(|p| p.0[0] < 128).count();
+        assert!(inked > 1000, "{chart}.png is nearly blank ({inked} dark pixels)");
+        let svg = std::fs::read_to_string(dir.path().join(format!("{chart}.svg"))).unwrap();
+        assert!(svg.contains("<svg") && svg.contains("tiny"), "{chart}.svg");
+    }
+}
+
+#[test]
+fn the_error_is_zero_against_itself_and_grows_with_the_step() {
+    let scene = tiny_drape_sphere();
+    let frames = 15; // past the first contact (frame ~6)
+    let diagonal = rest_diagonal(&scene).unwrap();
+    let reference = trajectory(&scene, 16, accuracy::REFERENCE_TOLERANCE, frames).unwrap();
+    assert_eq!(errors(&reference, &reference, diagonal), (0.0, 0.0));
+    let error_at = |steps: u32| errors(&trajectory(&scene, steps, 1e-6, frames).unwrap(), &reference, diagonal).0;
+    let (coarse, medium, fine) = (error_at(1), error_at(2), error_at(4));
+    assert!(coarse > medium && medium > fine && fine > 0.0, "{coarse} {medium} {fine}");
+}
+
+#[test]
+fn the_speed_against_error_chart_is_drawn() {
+    let points = vec![
+        accuracy::AccuracyPoint {
+            steps_per_frame: 1,
+            tolerance: 1e-3,
+            ms_per_frame: 10.0,
+            contact_error: 3e-2,
+            end_error: 1e-2,
+            max_strain: 0.01,
+            pareto: true,
+        },
+        accuracy::AccuracyPoint {
+            steps_per_frame: 4,
+            tolerance: 1e-3,
+            ms_per_frame: 40.0,
+            contact_error: 5e-3,
+            end_error: 1e-3,
+            max_strain: 0.01,
+            pareto: true,
+        },
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    accuracy::write_results(dir.path(), "tiny", &points).unwrap();
+    let png = image::open(dir.path().join("speed_against_error.png")).unwrap().to_luma8();
+    assert!(png.pixels().filter(|p| p.0[0] < 128).count() > 1000);
+    assert!(std::fs::read_to_string(dir.path().join("accuracy.md")).unwrap().contains("speed_against_error.png"));
+}
