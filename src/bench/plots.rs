@@ -33,16 +33,18 @@ pub enum PlotError {
     Write(#[from] WriteError),
 }
 
-/// Draws a chart onto any plotters backend.
-type Draw<'a> = dyn Fn(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String> + 'a;
+/// Draws a chart into a bitmap.
+type DrawPng<'a> = dyn Fn(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String> + 'a;
+/// Draws the same chart as SVG.
+type DrawSvg<'a> = dyn Fn(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String> + 'a;
 
 /// Writes `dir/<stem>.png` and `dir/<stem>.svg`, each drawn by `draw_png` /
 /// `draw_svg` (the same chart on the two backends).
 fn write_chart(
     dir: &Path,
     stem: &str,
-    draw_png: &Draw<'_>,
-    draw_svg: &dyn Fn(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>,
+    draw_png: &DrawPng<'_>,
+    draw_svg: &DrawSvg<'_>,
 ) -> Result<(), PlotError> {
     let failed = |message: String| PlotError::Draw { chart: stem.to_owned(), message };
     let mut pixels = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
