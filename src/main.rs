@@ -143,7 +143,8 @@ enum Command {
         #[command(subcommand)]
         sweep: Option<BenchSweep>,
         /// Which cases: the solver on drape_sphere, the collision scenes, the
-        /// strain limits (projection, clamping, off), drape against Blender's
+        /// strain limits (projection, clamping, off), time and memory against
+        /// the vertex count (scaling), drape against Blender's
         /// cloth (peers; needs bpy), or all.
         #[arg(long, value_enum, default_value = "core")]
         suite: bench::Suite,
@@ -789,6 +790,9 @@ fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> 
         println!("{}", bench::markdown_table(&results));
         println!("{}", bench::collision_table(&results));
         println!("{}", bench::constraints_table(&results));
+        if suite == bench::Suite::Scaling {
+            println!("{}", bench::scaling_table(&results));
+        }
         if let Some(dir) = out {
             bench::write_results(dir, &results).map_err(input)?;
         }

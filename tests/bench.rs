@@ -21,14 +21,21 @@ fn bench_writes_a_full_csv_the_report_and_non_empty_charts() {
     let scene = tiny_drape_sphere();
     let summary = measure(&scene, Some(12)).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    write_results(dir.path(), &[BenchResult { case: "tiny".into(), summary }]).unwrap();
+    write_results(dir.path(), &[BenchResult { case: "tiny".into(), summary, peak_memory_mib: Some(120.0) }]).unwrap();
 
     let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 2, "{csv}");
     let columns = lines[0].split(',').count();
     assert_eq!(lines[1].split(',').count(), columns, "every column filled: {csv}");
-    for column in ["ms_per_frame_median", "max_strain", "intersections_total", "cg_iterations_per_step", "solve_ms"] {
+    for column in [
+        "ms_per_frame_median",
+        "max_strain",
+        "intersections_total",
+        "cg_iterations_per_step",
+        "solve_ms",
+        "peak_memory_mib",
+    ] {
         assert!(lines[0].split(',').any(|c| c == column), "{column} missing: {}", lines[0]);
     }
     let report = std::fs::read_to_string(dir.path().join("bench.md")).unwrap();

@@ -2,6 +2,7 @@
 //! always reported with the strain it reached, as CSV and Markdown.
 
 pub mod accuracy;
+pub mod memory;
 pub mod peers;
 pub mod plots;
 
@@ -23,6 +24,8 @@ pub struct BenchResult {
     pub case: String,
     /// Its summary (speed, stages, solver effort, strain).
     pub summary: BakeSummary,
+    /// Peak resident memory of the process while it ran, MiB (Linux only).
+    pub peak_memory_mib: Option<f64>,
 }
 
 /// Why a benchmark could not run.
@@ -60,6 +63,9 @@ pub enum Suite {
     /// `drape_sphere`, `stiff` and `large_step` with the strain limits
     /// enforced by fast projection, by per-edge clamping, and not at all.
     Constraints,
+    /// `drape_sphere` at N = 32, 64, 128, 256, with and without
+    /// self-collision: how time and memory grow with the vertex count.
+    Scaling,
     /// drape against Blender's cloth (`benches/peers/blender_cloth.py`, needs
     /// `bpy`) on `drape_sphere` and `drape_table`.
     Peers,
@@ -125,6 +131,9 @@ const COLLISION_CASES: [Case; 6] = [
     Case::new("twist", None, true),
 ];
 
+/// Grid sizes of the scaling suite, vertices per side.
+const SCALING_SIZES: [usize; 4] = [32, 64, 128, 256];
+
 /// The cases of `suite`.
 fn cases(suite: Suite) -> Vec<Case> {
     let core = [Case::new("drape_sphere", Some(64), false), Case::new("drape_sphere", Some(128), false)];
@@ -132,12 +141,15 @@ fn cases(suite: Suite) -> Vec<Case> {
     let constraints = ["drape_sphere", "stiff", "large_step"]
         .into_iter()
         .flat_map(|scene| limitings.map(|limiting| Case { limiting: Some(limiting), ..Case::new(scene, None, true) }));
+    let scaling =
+        SCALING_SIZES.into_iter().flat_map(|n| [true, false].map(|own| Case::new("drape_sphere", Some(n), own)));
     match suite {
         Suite::Core => core.to_vec(),
         Suite::Collisions => COLLISION_CASES.to_vec(),
         Suite::Constraints => constraints.collect(),
+        Suite::Scaling => scaling.collect(),
         Suite::Peers => Vec::new(),
-        Suite::All => core.into_iter().chain(COLLISION_CASES).chain(constraints).collect(),
+        Suite::All => core.into_iter().chain(COLLISION_CASES).chain(constraints).chain(scaling).collect(),
     }
 }
 
@@ -148,7 +160,9 @@ pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Ve
         let scene = case.load()?;
         let name = case.name(&scene);
         log(&format!("running {name} ..."));
-        results.push(BenchResult { summary: measure(&scene, frames)?, case: name });
+        memory::reset_peak();
+        let summary = measure(&scene, frames)?;
+        results.push(BenchResult { summary, case: name, peak_memory_mib: memory::peak_mib() });
     }
     Ok(results)
 }
@@ -264,7 +278,7 @@ pub fn csv(results: &[BenchResult]) -> String {
     }
     out += ",cg_iterations_per_step,max_strain,contacts_max,collision_tests,collision_tests_without_ownership,\
             impact_zone_steps,intersections_total,penetrations_total,projection_iterations_per_step,\
-            projection_fallbacks,rollbacks\n";
+            projection_fallbacks,rollbacks,peak_memory_mib\n";
     for r in results {
         let s = &r.summary;
         let _ = write!(
@@ -290,6 +304,58 @@ pub fn csv(results: &[BenchResult]) -> String {
             s.projection_fallbacks,
             s.rollbacks
         );
+        out.pop(); // the newline, to append the memory column
+        let _ = writeln!(out, ",{}", r.peak_memory_mib.map_or(String::new(), |m| format!("{m:.1}")));
+    }
+    out
+}
+
+/// Least-squares slope of `ln y` against `ln x`: the exponent `p` of `y ∝ xᵖ`.
+pub fn power_law_exponent(points: &[(f64, f64)]) -> Option<f64> {
+    let logs: Vec<(f64, f64)> =
+        points.iter().filter(|(x, y)| *x > 0.0 && *y > 0.0).map(|(x, y)| (x.ln(), y.ln())).collect();
+    if logs.len() < 2 {
+        return None;
+    }
+    let n = logs.len() as f64;
+    let (mx, my) = (logs.iter().map(|p| p.0).sum::<f64>() / n, logs.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = logs.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = logs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// The results grouped by case without its size (`drape_sphere N=64 (no
+/// self-collision)` → `drape_sphere (no self-collision)`): time and memory
+/// against the vertex count, and the exponent of time per frame in it.
+pub fn scaling_table(results: &[BenchResult]) -> String {
+    let group_of = |case: &str| case.split(' ').filter(|w| !w.starts_with("N=")).collect::<Vec<_>>().join(" ");
+    let mut groups: Vec<String> = Vec::new();
+    for r in results {
+        let group = group_of(&r.case);
+        if !groups.contains(&group) {
+            groups.push(group);
+        }
+    }
+    let mut out = String::from(
+        "| case | vertices | ms/frame (median) | peak memory (MiB) | KiB per vertex | time exponent |\n\
+         |---|---:|---:|---:|---:|---:|\n",
+    );
+    for group in groups {
+        let members: Vec<&BenchResult> = results.iter().filter(|r| group_of(&r.case) == group).collect();
+        let points: Vec<(f64, f64)> =
+            members.iter().map(|r| (r.summary.vertices as f64, r.summary.ms_per_frame_median)).collect();
+        let exponent = power_law_exponent(&points).map_or("-".into(), |p| format!("{p:.2}"));
+        for (k, r) in members.iter().enumerate() {
+            let memory = r.peak_memory_mib.map_or("-".into(), |m| format!("{m:.0}"));
+            let per_vertex =
+                r.peak_memory_mib.map_or("-".into(), |m| format!("{:.1}", m * 1024.0 / r.summary.vertices as f64));
+            let shown = if k == 0 { exponent.as_str() } else { "" };
+            let _ = writeln!(
+                out,
+                "| {} | {} | {:.1} | {memory} | {per_vertex} | {shown} |",
+                r.case, r.summary.vertices, r.summary.ms_per_frame_median
+            );
+        }
     }
     out
 }
@@ -300,12 +366,25 @@ pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), plots::P
     std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
     write_file(&dir.join("bench.csv"), |w| std::io::Write::write_all(w, csv(results).as_bytes()))?;
     let tables = format!(
-        "{}\n{}\n{}\n![strain over time](strain_over_time.png)\n\n![time per stage](time_per_stage.png)\n",
+        "{}\n{}\n{}\n{}\n![strain over time](strain_over_time.png)\n\n![time per stage](time_per_stage.png)\n",
         markdown_table(results),
         collision_table(results),
-        constraints_table(results)
+        constraints_table(results),
+        scaling_table(results)
     );
     write_file(&dir.join("bench.md"), |w| std::io::Write::write_all(w, tables.as_bytes()))?;
     plots::strain_over_time(dir, results)?;
     plots::time_per_stage(dir, results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_exponent_of_a_power_law_is_its_log_log_slope() {
+        let cubic: Vec<(f64, f64)> = [1.0, 2.0, 4.0, 8.0].iter().map(|&x| (x, 3.0 * x * x * x)).collect();
+        assert!((power_law_exponent(&cubic).unwrap() - 3.0).abs() < 1e-12);
+        assert_eq!(power_law_exponent(&cubic[..1]), None);
+    }
 }

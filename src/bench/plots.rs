@@ -40,12 +40,7 @@ type DrawSvg<'a> = dyn Fn(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), Str
 
 /// Writes `dir/<stem>.png` and `dir/<stem>.svg`, each drawn by `draw_png` /
 /// `draw_svg` (the same chart on the two backends).
-fn write_chart(
-    dir: &Path,
-    stem: &str,
-    draw_png: &DrawPng<'_>,
-    draw_svg: &DrawSvg<'_>,
-) -> Result<(), PlotError> {
+fn write_chart(dir: &Path, stem: &str, draw_png: &DrawPng<'_>, draw_svg: &DrawSvg<'_>) -> Result<(), PlotError> {
     let failed = |message: String| PlotError::Draw { chart: stem.to_owned(), message };
     let mut pixels = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
     {

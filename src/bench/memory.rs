@@ -1,0 +1,31 @@
+//! Peak memory of a benchmark case: the process's high-water mark of
+//! resident memory, reset before the case (Linux `/proc`; elsewhere none).
+
+/// Resets the high-water mark of resident memory to the current use.
+pub fn reset_peak() {
+    // Writing 5 to clear_refs resets VmHWM (Linux 4.0+); without it the
+    // peak is the run's so far, which only overstates a later case.
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// Peak resident memory since the last [`reset_peak`], MiB.
+pub fn peak_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_large_allocation_raises_the_peak() {
+        reset_peak();
+        let Some(before) = peak_mib() else { return }; // not Linux
+        let block = vec![1u8; 64 << 20];
+        let after = peak_mib().unwrap();
+        assert!(after >= before + 60.0, "{before} -> {after} MiB ({} bytes touched)", block.len());
+    }
+}
