@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use plotters::coord::Shift;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 
 use super::BenchResult;
@@ -63,6 +63,32 @@ fn write_chart(dir: &Path, stem: &str, draw_png: &DrawPng<'_>, draw_svg: &DrawSv
     Ok(())
 }
 
+/// A chart's frame: caption, margin and axis label areas (`y_labels` px wide).
+fn chart_builder<'a, 'b, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    y_labels: u32,
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut builder = ChartBuilder::on(root);
+    builder.caption(caption, ("sans-serif", CAPTION_PX)).margin(16).x_label_area_size(48).y_label_area_size(y_labels);
+    builder
+}
+
+/// The series' legend at `position`, on a light box.
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .label_font(("sans-serif", LABEL_PX))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
 /// The span of log10 of the positive `values`, widened by 0.1 each side
 /// (the speed-against-error axes are drawn in log10 and labelled in values).
 fn log10_span(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
@@ -90,11 +116,7 @@ pub fn speed_against_error(dir: &Path, sweeps: &[(String, Vec<AccuracyPoint>)]) 
     ) -> Result<(), String> {
         let all = || sweeps.iter().flat_map(|(_, points)| points);
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let mut chart = ChartBuilder::on(root)
-            .caption("Speed against error (Pareto front: line)", ("sans-serif", CAPTION_PX))
-            .margin(16)
-            .x_label_area_size(48)
-            .y_label_area_size(80)
+        let mut chart = chart_builder(root, "Speed against error (Pareto front: line)", 80)
             .build_cartesian_2d(log10_span(all().map(|p| p.ms_per_frame)), log10_span(all().map(|p| p.contact_error)))
             .map_err(|e| e.to_string())?;
         chart
@@ -131,13 +153,7 @@ pub fn speed_against_error(dir: &Path, sweeps: &[(String, Vec<AccuracyPoint>)]) 
                 }))
                 .map_err(|e| e.to_string())?;
         }
-        chart
-            .configure_series_labels()
-            .label_font(("sans-serif", LABEL_PX))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| e.to_string())
+        legend(&mut chart, SeriesLabelPosition::MiddleRight)
     }
     write_chart(dir, "speed_against_error", &|root| draw(root, sweeps), &|root| draw(root, sweeps))
 }
@@ -149,11 +165,7 @@ pub fn strain_over_time(dir: &Path, results: &[BenchResult]) -> Result<(), PlotE
         let strains = results.iter().flat_map(|r| r.summary.per_frame.iter().map(|f| f.max_strain * 100.0));
         let top = strains.fold(1.0_f64, f64::max) * 1.1;
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let mut chart = ChartBuilder::on(root)
-            .caption("Largest stretch strain at each frame end", ("sans-serif", CAPTION_PX))
-            .margin(16)
-            .x_label_area_size(48)
-            .y_label_area_size(70)
+        let mut chart = chart_builder(root, "Largest stretch strain at each frame end", 70)
             .build_cartesian_2d(0usize..frames, 0.0..top)
             .map_err(|e| e.to_string())?;
         chart
@@ -172,13 +184,7 @@ pub fn strain_over_time(dir: &Path, results: &[BenchResult]) -> Result<(), PlotE
                 .label(r.case.as_str())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .label_font(("sans-serif", LABEL_PX))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| e.to_string())
+        legend(&mut chart, SeriesLabelPosition::MiddleRight)
     }
     write_chart(dir, "strain_over_time", &|root| draw(root, results), &|root| draw(root, results))
 }
@@ -190,11 +196,7 @@ pub fn time_per_stage(dir: &Path, results: &[BenchResult]) -> Result<(), PlotErr
         let stage_ms = |r: &BenchResult, s: &str| r.summary.stage_ms_per_frame_median.get(s).copied().unwrap_or(0.0);
         let widest = results.iter().map(|r| stages.iter().map(|s| stage_ms(r, s)).sum::<f64>()).fold(1e-3, f64::max);
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let mut chart = ChartBuilder::on(root)
-            .caption("Time per stage (median ms per frame)", ("sans-serif", CAPTION_PX))
-            .margin(16)
-            .x_label_area_size(48)
-            .y_label_area_size(40)
+        let mut chart = chart_builder(root, "Time per stage (median ms per frame)", 40)
             .build_cartesian_2d(0.0..widest * 1.35, 0.0..results.len().max(1) as f64)
             .map_err(|e| e.to_string())?;
         chart
@@ -223,14 +225,7 @@ pub fn time_per_stage(dir: &Path, results: &[BenchResult]) -> Result<(), PlotErr
             .enumerate()
             .map(|(row, r)| Text::new(r.case.clone(), (0.0, row as f64 + 0.95), ("sans-serif", LABEL_PX)));
         chart.draw_series(names).map_err(|e| e.to_string())?;
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font(("sans-serif", LABEL_PX))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| e.to_string())
+        legend(&mut chart, SeriesLabelPosition::UpperRight)
     }
     write_chart(dir, "time_per_stage", &|root| draw(root, results), &|root| draw(root, results))
 }
