@@ -142,10 +142,11 @@ enum Command {
         /// `accuracy SCENE`: speed against error instead of the suites.
         #[command(subcommand)]
         sweep: Option<BenchSweep>,
-        /// Which cases: the solver on drape_sphere, the collision scenes, the
-        /// strain limits (projection, clamping, off), time and memory against
-        /// the vertex count (scaling), drape against Blender's
-        /// cloth (peers; needs bpy), or all.
+        /// Which cases: the paper's experiments, the hard cases, speed against
+        /// error on drape_sphere (accuracy), the solver alone on drape_sphere
+        /// (core), the collision scenes, the strain limits (projection,
+        /// clamping, off), time and memory against the vertex count
+        /// (scaling), drape against Blender's cloth (peers; needs bpy), or all.
         #[arg(long, value_enum, default_value = "core")]
         suite: bench::Suite,
         /// Frames per case (default: each scene's full range).
@@ -796,6 +797,10 @@ fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> 
         if let Some(dir) = out {
             bench::write_results(dir, &results).map_err(input)?;
         }
+    }
+    if matches!(suite, bench::Suite::Accuracy | bench::Suite::All) {
+        let scene = bench::standard_scene("drape_sphere");
+        run_accuracy(&scene, &[1, 2, 4, 8], &[1e-2, 1e-3, 1e-4], frames, out.map(|d| d.join("accuracy")).as_deref())?;
     }
     if matches!(suite, bench::Suite::Peers | bench::Suite::All) {
         // Blender's frames are kept for inspection: in --out, or the system's temporary folder.

@@ -55,6 +55,15 @@ pub fn standard_scene(name: &str) -> PathBuf {
 /// Which cases `drape bench` runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Suite {
+    /// The paper's experiments of SCENES.md as the files have them
+    /// (`drape_sphere` also at N = 128).
+    Paper,
+    /// The hard cases of SCENES.md (stability and robustness).
+    Hard,
+    /// Speed against error on `drape_sphere`: 1, 2, 4, 8 steps per frame ×
+    /// tolerances 1e-2, 1e-3, 1e-4 against the 16× reference (as `drape
+    /// bench accuracy`).
+    Accuracy,
     /// The solver on `drape_sphere` at N = 64 and N = 128, self-collision
     /// off (the core issue's measure).
     Core,
@@ -131,6 +140,29 @@ const COLLISION_CASES: [Case; 6] = [
     Case::new("twist", None, true),
 ];
 
+/// The paper's experiments (SCENES.md).
+const PAPER_CASES: [Case; 7] = [
+    Case::new("drape_sphere", None, true),
+    Case::new("drape_sphere", Some(128), true),
+    Case::new("drape_table", None, true),
+    Case::new("pillars", None, true),
+    Case::new("skirt_walk", None, true),
+    Case::new("skirt_tiered_walk", None, true),
+    Case::new("motion_reuse", None, true),
+];
+
+/// The hard cases (SCENES.md).
+const HARD_CASES: [Case; 8] = [
+    Case::new("large_step", None, true),
+    Case::new("stiff", None, true),
+    Case::new("projectile", None, true),
+    Case::new("spin_sphere", None, true),
+    Case::new("twist", None, true),
+    Case::new("needles", None, true),
+    Case::new("fast_body", None, true),
+    Case::new("bad_mesh", None, true),
+];
+
 /// Grid sizes of the scaling suite, vertices per side.
 const SCALING_SIZES: [usize; 4] = [32, 64, 128, 256];
 
@@ -148,8 +180,17 @@ fn cases(suite: Suite) -> Vec<Case> {
         Suite::Collisions => COLLISION_CASES.to_vec(),
         Suite::Constraints => constraints.collect(),
         Suite::Scaling => scaling.collect(),
-        Suite::Peers => Vec::new(),
-        Suite::All => core.into_iter().chain(COLLISION_CASES).chain(constraints).chain(scaling).collect(),
+        Suite::Paper => PAPER_CASES.to_vec(),
+        Suite::Hard => HARD_CASES.to_vec(),
+        Suite::Accuracy | Suite::Peers => Vec::new(),
+        Suite::All => PAPER_CASES
+            .into_iter()
+            .chain(HARD_CASES)
+            .chain(core)
+            .chain(COLLISION_CASES)
+            .chain(constraints)
+            .chain(scaling)
+            .collect(),
     }
 }
 
