@@ -17,6 +17,7 @@ use drape::bench;
 use drape::fabric_lab;
 use drape::metrics::sequence::check_sequence;
 use drape::scene::Scene;
+use drape::scene::preset::Preset;
 use drape::scene::summary::summary;
 
 #[derive(Parser)]
@@ -434,7 +435,7 @@ fn run_check_bake(dir: &Path, scene: Option<&Path>, json: Option<&Path>) -> Resu
             None
         }
     };
-    let checks = check_sequence(dir, scene.as_ref(), |c| {
+    let checks = check_sequence(dir, scene.as_ref(), |c, _| {
         let i = &c.intersections;
         if i.pairs() + i.penetrating_vertices > 0 {
             println!(
@@ -711,14 +712,11 @@ fn run_accuracy(
 }
 
 fn run_fabric_test(presets: &[String], drape: bool, across: usize, pictures: Option<&Path>) -> Result<(), Failure> {
-    let names: Vec<String> = if presets.is_empty() {
-        drape::scene::preset::Preset::builtin_names().map(str::to_owned).collect()
-    } else {
-        presets.to_vec()
-    };
+    let names: Vec<String> =
+        if presets.is_empty() { Preset::builtin_names().map(str::to_owned).collect() } else { presets.to_vec() };
     let mut reports = Vec::new();
     for name in &names {
-        let preset = drape::scene::preset::Preset::resolve(name, Path::new(""), &toml::Table::new()).map_err(input)?;
+        let preset = Preset::resolve(name, Path::new(""), &toml::Table::new()).map_err(input)?;
         eprintln!("testing {} ...", preset.name);
         let lab = |e: fabric_lab::LabError| Failure::Input(format!("{}: {e}", preset.name));
         let cantilever = fabric_lab::cantilever::cantilever_test(&preset.fabric, fabric_lab::fit::CANTILEVER_SEGMENTS)
@@ -763,7 +761,7 @@ fn run_fabric_fit(
     across: usize,
     out: &Path,
 ) -> Result<(), Failure> {
-    let base = drape::scene::preset::Preset::resolve(base, Path::new(""), &toml::Table::new()).map_err(input)?;
+    let base = Preset::resolve(base, Path::new(""), &toml::Table::new()).map_err(input)?;
     let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("fitted");
     let fitted = fabric_lab::fit::fit(&base, name.unwrap_or(stem), measured, across, |line| eprintln!("{line}"))
         .map_err(input)?;

@@ -14,7 +14,7 @@ use serde::Deserialize;
 
 use super::{BenchError, standard_scene};
 use crate::bake;
-use crate::metrics::sequence::{SequenceError, check_sequence, frame_files};
+use crate::metrics::sequence::check_sequence;
 use crate::scene::Scene;
 use crate::scene::file::MeshSpec;
 
@@ -160,16 +160,35 @@ fn blender_run(
         .map_err(|e| BenchError::Peer(format!("{}: {e}", report_path.display())))?;
     let report: BlenderReport =
         serde_json::from_str(&text).map_err(|e| BenchError::Peer(format!("{}: {e}", report_path.display())))?;
-    let checks = check_sequence(out, Some(scene), |_| {})?;
-    let max_strain = sequence_strain(out, resolution)?;
-    let bad = checks.iter().filter(|c| c.intersections.pairs() + c.intersections.penetrating_vertices > 0).count();
+    // Strain from the frames the checker reads: frame 0 (flat) is the rest.
+    let edges = structural_edges(resolution);
+    let (mut rest, mut max_strain, mut wrong_size) = (None, 0.0_f64, None);
+    let checks = check_sequence(out, Some(scene), |check, mesh| {
+        if mesh.positions.len() != resolution * resolution {
+            wrong_size.get_or_insert_with(|| (check.file.clone(), mesh.positions.len()));
+            return;
+        }
+        match &rest {
+            None => rest = Some(edge_lengths(&mesh.positions, &edges)),
+            Some(rest) => max_strain = max_strain.max(strain(&mesh.positions, &edges, rest)),
+        }
+    })?;
+    if let Some((file, count)) = wrong_size {
+        return Err(BenchError::Peer(format!(
+            "{}: {count} vertices, not the {resolution}² of the scene's grid",
+            out.join(file).display()
+        )));
+    }
+    // Frame 0 is the initial state, not a simulated frame: left out, as for drape.
+    let simulated = &checks[1.min(checks.len())..];
+    let bad = simulated.iter().filter(|c| c.intersections.pairs() + c.intersections.penetrating_vertices > 0).count();
     let run = PeerRun {
         ms_per_frame: report.ms_per_frame_median,
         max_strain,
         frames_with_problems: bad,
-        frames: checks.len().saturating_sub(1),
-        intersecting_pairs: checks.iter().skip(1).map(|c| u64::from(c.intersections.pairs())).sum(),
-        penetrating_vertices: checks.iter().skip(1).map(|c| u64::from(c.intersections.penetrating_vertices)).sum(),
+        frames: simulated.len(),
+        intersecting_pairs: simulated.iter().map(|c| u64::from(c.intersections.pairs())).sum(),
+        penetrating_vertices: simulated.iter().map(|c| u64::from(c.intersections.penetrating_vertices)).sum(),
     };
     Ok(PeerOutcome::Ran { run, quality, settings: report.settings.to_string() })
 }
@@ -178,29 +197,6 @@ fn blender_run(
 fn peer_script() -> PathBuf {
     let relative = Path::new("benches/peers/blender_cloth.py");
     if relative.exists() { relative.to_owned() } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(relative) }
-}
-
-/// Largest warp/weft strain over the frames of an OBJ sequence (frame 0 the rest).
-fn sequence_strain(dir: &Path, resolution: usize) -> Result<f64, BenchError> {
-    let edges = structural_edges(resolution);
-    let mut rest = Vec::new();
-    let mut worst = 0.0_f64;
-    for (index, (_, path)) in frame_files(dir)?.iter().enumerate() {
-        let mesh = crate::io::obj::read_frame(path).map_err(SequenceError::from)?;
-        if mesh.positions.len() != resolution * resolution {
-            return Err(BenchError::Peer(format!(
-                "{}: {} vertices, not the {resolution}² of the scene's grid",
-                path.display(),
-                mesh.positions.len()
-            )));
-        }
-        if index == 0 {
-            rest = edge_lengths(&mesh.positions, &edges);
-        } else {
-            worst = worst.max(strain(&mesh.positions, &edges, &rest));
-        }
-    }
-    Ok(worst)
 }
 
 /// Vertex pairs along the rows and columns (warp and weft) of an n × n grid

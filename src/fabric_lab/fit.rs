@@ -80,9 +80,13 @@ pub fn fit(
     let cusick = match measured.drape_coefficient {
         Some(target) => {
             let (shear, test) = fit_shear(&fabric, target, across, &log)?;
+            // Shear damping keeps its ratio to the stiffness (the base's own
+            // damping when the base has no shear stiffness to scale from).
+            let base_shear = base.fabric.shear_stiffness_n_per_m;
+            if base_shear > 0.0 {
+                fabric.shear_damping_n_s_per_m *= shear / base_shear;
+            }
             fabric.shear_stiffness_n_per_m = shear;
-            fabric.shear_damping_n_s_per_m = shear * base.fabric.shear_damping_n_s_per_m
-                / base.fabric.shear_stiffness_n_per_m.max(f64::MIN_POSITIVE);
             Some(test)
         }
         None => None,

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::intersections::{Checker, Intersections};
-use crate::io::obj::{ObjError, read_frame};
+use crate::io::obj::{FrameMesh, ObjError, read_frame};
 use crate::scene::Scene;
 
 /// Why a sequence could not be checked.
@@ -79,11 +79,11 @@ pub fn frame_files(dir: &Path) -> Result<Vec<(u64, PathBuf)>, SequenceError> {
 }
 
 /// Checks every frame of the sequence in `dir` (against `scene`'s colliders,
-/// if given), calling `on_frame` as each is done.
+/// if given), calling `on_frame` with each check and the frame it read.
 pub fn check_sequence(
     dir: &Path,
     scene: Option<&Scene>,
-    mut on_frame: impl FnMut(&FrameCheck),
+    mut on_frame: impl FnMut(&FrameCheck, &FrameMesh),
 ) -> Result<Vec<FrameCheck>, SequenceError> {
     let files = frame_files(dir)?;
     let first = files[0].0;
@@ -101,7 +101,7 @@ pub fn check_sequence(
             triangles: mesh.triangles.len(),
             intersections: checker.check(&mesh.positions, time),
         };
-        on_frame(&check);
+        on_frame(&check, &mesh);
         checks.push(check);
     }
     Ok(checks)
@@ -130,7 +130,7 @@ mod tests {
         write(dir.path(), "cloth10.obj", &frame(true));
         write(dir.path(), "cloth9.obj", &frame(false));
         write(dir.path(), "notes.txt", "not a frame");
-        let checks = check_sequence(dir.path(), None, |_| {}).unwrap();
+        let checks = check_sequence(dir.path(), None, |_, _| {}).unwrap();
         assert_eq!(checks.iter().map(|c| c.frame).collect::<Vec<_>>(), [9, 10]);
         assert_eq!(checks[0].intersections.pairs(), 0);
         assert_eq!(checks[1].intersections.cloth_pairs, 1);
@@ -143,22 +143,22 @@ mod tests {
         // shared corners, the reader merges them, so they are adjacent (and
         // touching along that edge is not an intersection).
         write(dir.path(), "f_1.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0.5 1\ng a\nf 1 2 3\ng b\nf 2 4 3\n");
-        let checks = check_sequence(dir.path(), None, |_| {}).unwrap();
+        let checks = check_sequence(dir.path(), None, |_, _| {}).unwrap();
         assert_eq!((checks[0].triangles, checks[0].intersections.pairs()), (2, 0));
     }
 
     #[test]
     fn bad_folders_and_files_are_named() {
         let dir = tempfile::tempdir().unwrap();
-        assert!(matches!(check_sequence(dir.path(), None, |_| {}), Err(SequenceError::NoFrames { .. })));
+        assert!(matches!(check_sequence(dir.path(), None, |_, _| {}), Err(SequenceError::NoFrames { .. })));
         write(dir.path(), "final.obj", &frame(false));
-        let e = check_sequence(dir.path(), None, |_| {}).unwrap_err();
+        let e = check_sequence(dir.path(), None, |_, _| {}).unwrap_err();
         assert!(e.to_string().contains("final.obj") && e.to_string().contains("frame number"), "{e}");
         std::fs::remove_file(dir.path().join("final.obj")).unwrap();
         write(dir.path(), "f_3.obj", "v 0 0 0\nv 1 0 zero\nf 1 2 1\n");
-        let e = check_sequence(dir.path(), None, |_| {}).unwrap_err();
+        let e = check_sequence(dir.path(), None, |_, _| {}).unwrap_err();
         assert!(e.to_string().contains("f_3.obj") && e.to_string().contains("line 2"), "{e}");
         let missing = dir.path().join("missing");
-        assert!(check_sequence(&missing, None, |_| {}).unwrap_err().to_string().contains("missing"));
+        assert!(check_sequence(&missing, None, |_, _| {}).unwrap_err().to_string().contains("missing"));
     }
 }

@@ -227,17 +227,18 @@ fn bending_hinges(mesh: &TriMesh, topology: &Topology) -> Vec<([u32; 4], f64)> {
         opposite.sort_unstable();
         [edge[0], edge[1], opposite[0], opposite[1]]
     };
-    let mut shares: HashMap<[u32; 4], ([u32; 4], f64)> = HashMap::new();
-    let mut order = Vec::new();
+    // Each split contributes half; a hinge both splits have is kept once, whole.
+    let mut hinges: Vec<([u32; 4], f64)> = Vec::new();
+    let mut index: HashMap<[u32; 4], usize> = HashMap::new();
     for hinge in topology.hinges.iter().chain(&Topology::new(&other_split).hinges) {
         let ids = as_ids(hinge);
-        let entry = shares.entry(key(&ids)).or_insert_with(|| {
-            order.push(key(&ids));
-            (ids, 0.0)
+        let slot = *index.entry(key(&ids)).or_insert_with(|| {
+            hinges.push((ids, 0.0));
+            hinges.len() - 1
         });
-        entry.1 += 0.5;
+        hinges[slot].1 += 0.5;
     }
-    order.into_iter().filter_map(|k| shares.remove(&k)).collect()
+    hinges
 }
 
 /// Lumped masses: a third of each triangle's mass to each corner, or the
@@ -302,7 +303,7 @@ impl SpringLayout {
                 shear.push((across, 2.0 * (areas[t0] + areas[t1])));
             }
         }
-        shear.sort_by(|x, y| x.0.cmp(&y.0));
+        shear.sort_by_key(|x| x.0);
         shear.dedup_by(|x, y| x.0 == y.0);
         springs.extend(shear.into_iter().map(|(ends, area)| (ends, SpringKind::Shear, area)));
         SpringLayout { springs }
