@@ -14,6 +14,7 @@ use drape::bake::output::BakeFolder;
 use drape::bake::summary::BakeSummary;
 use drape::bake::{self, BakeError};
 use drape::bench;
+use drape::bench::accuracy::ErrorMeasure;
 use drape::fabric_lab;
 use drape::metrics::sequence::check_sequence;
 use drape::scene::Scene;
@@ -217,7 +218,8 @@ enum BenchSweep {
     /// Speed against error: run SCENE at each steps-per-frame and tolerance,
     /// compare each run with a reference of 16x smaller steps and tolerance
     /// 1e-10 (RMS error over the rest diagonal, over the 0.5 s after first
-    /// contact and at the end), and print the table with the Pareto front.
+    /// contact, and at the end with --end-state), and print the table with
+    /// the Pareto front.
     Accuracy {
         /// The scene file.
         scene: PathBuf,
@@ -227,10 +229,15 @@ enum BenchSweep {
         /// Linear-solver tolerances to try.
         #[arg(long, value_delimiter = ',', default_value = "1e-2,1e-3,1e-4")]
         tolerances: Vec<f64>,
-        /// Frames per run (default: the scene's full range).
+        /// Frames per run at most (default: the scene's full range; runs
+        /// stop at the end of the contact window unless --end-state).
         #[arg(long)]
         frames: Option<usize>,
-        /// Folder for accuracy.csv and accuracy.md.
+        /// Also compare the last frame (the end state of a static scene):
+        /// every run, the reference too, covers the whole range.
+        #[arg(long)]
+        end_state: bool,
+        /// Folder for accuracy.csv, accuracy.md and the chart.
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -273,8 +280,12 @@ fn main() -> ExitCode {
         Command::Bake { scene, out, frames } => run_bake(&scene, &out, frames),
         Command::Check { scene } => run_check(&scene),
         Command::CheckBake { dir, scene, json } => run_check_bake(&dir, scene.as_deref(), json.as_deref()),
-        Command::Bench { sweep: Some(BenchSweep::Accuracy { scene, steps, tolerances, frames, out }), .. } => {
-            run_accuracy(&scene, &steps, &tolerances, frames, out.as_deref())
+        Command::Bench {
+            sweep: Some(BenchSweep::Accuracy { scene, steps, tolerances, frames, end_state, out }),
+            ..
+        } => {
+            let measure = if end_state { ErrorMeasure::WithEndState } else { ErrorMeasure::ContactWindow };
+            run_accuracy(&[(scene, measure)], &steps, &tolerances, frames, out.as_deref())
         }
         Command::Bench { sweep: None, suite, frames, out } => run_bench(suite, frames, out.as_deref()),
         Command::Fabric { command: FabricCommand::Test { presets, no_drape, across, pictures } } => {
@@ -687,8 +698,10 @@ fn run_import_motion(
     Ok(())
 }
 
+/// Sweeps each scene over `steps` × `tolerances`, prints each table, and
+/// writes the results (one chart, a curve per scene) to `out`.
 fn run_accuracy(
-    scene: &Path,
+    scenes: &[(PathBuf, ErrorMeasure)],
     steps: &[u32],
     tolerances: &[f64],
     frames: Option<usize>,
@@ -700,12 +713,16 @@ fn run_accuracy(
     if let Some(bad) = tolerances.iter().find(|t| !(t.is_finite() && **t > 0.0 && **t < 1.0)) {
         return Err(Failure::Input(format!("--tolerances: {bad} is not between 0 and 1")));
     }
-    let scene = Scene::load(scene).map_err(input)?;
-    let points = bench::accuracy::sweep(&scene, steps, tolerances, frames, |line| eprintln!("{line}"))
-        .map_err(|e| Failure::Internal(e.to_string()))?;
-    println!("{}", bench::accuracy::markdown_table(&points));
+    let mut sweeps = Vec::new();
+    for (path, measure) in scenes {
+        let scene = Scene::load(path).map_err(input)?;
+        let points = bench::accuracy::sweep(&scene, steps, tolerances, frames, *measure, |line| eprintln!("{line}"))
+            .map_err(|e| Failure::Internal(e.to_string()))?;
+        println!("{}\n{}", scene.name, bench::accuracy::markdown_table(&points));
+        sweeps.push((scene.name, points));
+    }
     if let Some(dir) = out {
-        bench::accuracy::write_results(dir, &scene.name, &points).map_err(input)?;
+        bench::accuracy::write_results(dir, &sweeps).map_err(input)?;
         println!("wrote {}", dir.display());
     }
     Ok(())
@@ -797,8 +814,9 @@ fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> 
         }
     }
     if matches!(suite, bench::Suite::Accuracy | bench::Suite::All) {
-        let scene = bench::standard_scene("drape_sphere");
-        run_accuracy(&scene, &[1, 2, 4, 8], &[1e-2, 1e-3, 1e-4], frames, out.map(|d| d.join("accuracy")).as_deref())?;
+        let scenes = bench::ACCURACY_SCENES.map(|(name, measure)| (bench::standard_scene(name), measure));
+        let (steps, tolerances) = (bench::ACCURACY_STEPS, bench::ACCURACY_TOLERANCES);
+        run_accuracy(&scenes, &steps, &tolerances, frames, out.map(|d| d.join("accuracy")).as_deref())?;
     }
     if matches!(suite, bench::Suite::Peers | bench::Suite::All) {
         // Blender's frames are kept for inspection: in --out, or the system's temporary folder.

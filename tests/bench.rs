@@ -1,7 +1,7 @@
 //! The benchmark harness on a tiny scene: what it writes, and that its error
 //! metric measures what it says.
 
-use drape::bench::accuracy::{self, errors, rest_diagonal, trajectory};
+use drape::bench::accuracy::{self, ErrorMeasure, Reference};
 use drape::bench::{BenchResult, measure, standard_scene, write_results};
 use drape::scene::Scene;
 use drape::scene::file::MeshSpec;
@@ -19,9 +19,11 @@ fn tiny_drape_sphere() -> Scene {
 #[test]
 fn bench_writes_a_full_csv_the_report_and_non_empty_charts() {
     let scene = tiny_drape_sphere();
-    let summary = measure(&scene, Some(12)).unwrap();
+    let reference = Reference::run(&scene, 12, ErrorMeasure::WithEndState).unwrap();
+    let (summary, errors) = measure(&scene, Some(12), Some(&reference)).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    write_results(dir.path(), &[BenchResult { case: "tiny".into(), summary, peak_memory_mib: Some(120.0) }]).unwrap();
+    let result = BenchResult { case: "tiny".into(), summary, peak_memory_mib: Some(120.0), errors };
+    write_results(dir.path(), &[result]).unwrap();
 
     let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
@@ -35,6 +37,8 @@ fn bench_writes_a_full_csv_the_report_and_non_empty_charts() {
         "cg_iterations_per_step",
         "solve_ms",
         "peak_memory_mib",
+        "error_contact_window",
+        "error_end",
     ] {
         assert!(lines[0].split(',').any(|c| c == column), "{column} missing: {}", lines[0]);
     }
@@ -53,13 +57,31 @@ fn bench_writes_a_full_csv_the_report_and_non_empty_charts() {
 #[test]
 fn the_error_is_zero_against_itself_and_grows_with_the_step() {
     let scene = tiny_drape_sphere();
-    let frames = 15; // past the first contact (frame ~6)
-    let diagonal = rest_diagonal(&scene).unwrap();
-    let reference = trajectory(&scene, 16, accuracy::REFERENCE_TOLERANCE, frames).unwrap();
-    assert_eq!(errors(&reference, &reference, diagonal), (0.0, 0.0));
-    let error_at = |steps: u32| errors(&trajectory(&scene, steps, 1e-6, frames).unwrap(), &reference, diagonal).0;
-    let (coarse, medium, fine) = (error_at(1), error_at(2), error_at(4));
-    assert!(coarse > medium && medium > fine && fine > 0.0, "{coarse} {medium} {fine}");
+    let frames = 30; // past the first contact (frame ~7) and its window
+    let reference = Reference::run(&scene, frames, ErrorMeasure::WithEndState).unwrap();
+    let window = reference.contact_window();
+    assert!(*window.start() > 0 && *window.end() < frames, "contact starts and its window ends: {window:?}");
+    assert_eq!(reference.frames_needed(), frames, "the end state is the last frame");
+
+    let errors_at = |steps: u32, tolerance: f64| {
+        let run = accuracy::variant(&scene, steps, tolerance);
+        measure(&run, Some(frames), Some(&reference)).unwrap().1.unwrap()
+    };
+    let itself = errors_at(2 * accuracy::REFERENCE_REFINEMENT, accuracy::REFERENCE_TOLERANCE);
+    assert_eq!((itself.contact, itself.end), (0.0, Some(0.0)));
+    let (coarse, medium, fine) = (errors_at(1, 1e-6), errors_at(2, 1e-6), errors_at(4, 1e-6));
+    assert!(coarse.contact > medium.contact && medium.contact > fine.contact && fine.contact > 0.0);
+    assert!(fine.end.is_some_and(|e| e > 0.0));
+}
+
+#[test]
+fn a_contact_window_reference_stops_at_the_end_of_the_window() {
+    let scene = tiny_drape_sphere();
+    let reference = Reference::run(&scene, 40, ErrorMeasure::ContactWindow).unwrap();
+    let window = reference.contact_window();
+    // 0.5 s at 30 frames per second after the first contact.
+    assert_eq!(window.clone().count(), 16, "{window:?}");
+    assert_eq!(reference.frames_needed(), *window.end());
 }
 
 #[test]
@@ -70,7 +92,7 @@ fn the_speed_against_error_chart_is_drawn() {
             tolerance: 1e-3,
             ms_per_frame: 10.0,
             contact_error: 3e-2,
-            end_error: 1e-2,
+            end_error: Some(1e-2),
             max_strain: 0.01,
             pareto: true,
         },
@@ -79,13 +101,13 @@ fn the_speed_against_error_chart_is_drawn() {
             tolerance: 1e-3,
             ms_per_frame: 40.0,
             contact_error: 5e-3,
-            end_error: 1e-3,
+            end_error: None,
             max_strain: 0.01,
             pareto: true,
         },
     ];
     let dir = tempfile::tempdir().unwrap();
-    accuracy::write_results(dir.path(), "tiny", &points).unwrap();
+    accuracy::write_results(dir.path(), &[("tiny".into(), points)]).unwrap();
     let png = image::open(dir.path().join("speed_against_error.png")).unwrap().to_luma8();
     assert!(png.pixels().filter(|p| p.0[0] < 128).count() > 1000);
     assert!(std::fs::read_to_string(dir.path().join("accuracy.md")).unwrap().contains("speed_against_error.png"));

@@ -10,12 +10,12 @@
 //! form the Pareto front.
 
 use std::fmt::Write as _;
-use std::sync::atomic::AtomicBool;
+use std::ops::RangeInclusive;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::Vector3;
 
 use super::plots::PlotError;
-use crate::bake::summary::BakeSummary;
 use crate::bake::{self, BakeError};
 use crate::io::atomic::{WriteError, write_file};
 use crate::scene::Scene;
@@ -27,17 +27,37 @@ pub const REFERENCE_TOLERANCE: f64 = 1e-10;
 /// Length of the window after first contact over which errors are averaged, s.
 pub const CONTACT_WINDOW_S: f64 = 0.5;
 
-/// Every frame's cloth positions of one run, with what the run measured.
+/// Which errors a reference run is kept for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorMeasure {
+    /// The contact window only.
+    ContactWindow,
+    /// The contact window and the last frame (the end state of a static scene).
+    WithEndState,
+}
+
+/// A reference run of a scene ([`REFERENCE_REFINEMENT`]× smaller steps,
+/// tolerance [`REFERENCE_TOLERANCE`]), its positions kept at the frames errors
+/// are measured on.
 #[derive(Clone, Debug)]
-pub struct Trajectory {
-    /// Positions at every frame end, frame 0 (the initial state) first, m.
-    pub frames: Vec<Vec<Vector3<f64>>>,
-    /// Frame times, s.
-    pub times: Vec<f64>,
-    /// First frame at whose end the cloth touches a collider or itself.
-    pub first_contact: Option<usize>,
-    /// Speed, strain and effort of the run.
-    pub summary: BakeSummary,
+pub struct Reference {
+    /// Frames of the contact window.
+    window: RangeInclusive<usize>,
+    /// Positions at each frame of the window, m.
+    window_frames: Vec<Vec<Vector3<f64>>>,
+    /// The last frame and its positions, when the end state is measured.
+    end: Option<(usize, Vec<Vector3<f64>>)>,
+    /// Diagonal of the cloth's rest bounding box, m.
+    diagonal_m: f64,
+}
+
+/// A run's errors against a reference, relative to the cloth's rest diagonal.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RunErrors {
+    /// Mean relative RMS error over the contact window, unitless.
+    pub contact: f64,
+    /// Relative RMS error at the last frame, if measured, unitless.
+    pub end: Option<f64>,
 }
 
 /// One point of the sweep.
@@ -51,63 +71,120 @@ pub struct AccuracyPoint {
     pub ms_per_frame: f64,
     /// Mean relative RMS error over the contact window, unitless.
     pub contact_error: f64,
-    /// Relative RMS error at the last frame, unitless.
-    pub end_error: f64,
+    /// Relative RMS error at the last frame, if measured, unitless.
+    pub end_error: Option<f64>,
     /// Largest stretch strain of the run, unitless.
     pub max_strain: f64,
     /// Whether no other point is both faster and more accurate.
     pub pareto: bool,
 }
 
-/// Runs `scene` with `steps_per_frame` and `tolerance` (the first `frames`
-/// frames) and keeps every frame's positions.
-pub fn trajectory(scene: &Scene, steps_per_frame: u32, tolerance: f64, frames: usize) -> Result<Trajectory, BakeError> {
+/// `scene` with `steps_per_frame` solver steps per frame and linear-solver
+/// tolerance `tolerance`.
+pub fn variant(scene: &Scene, steps_per_frame: u32, tolerance: f64) -> Scene {
     let mut variant = scene.clone();
     variant.steps_per_frame = steps_per_frame;
     variant.solver.tolerance = tolerance;
-    let mut positions = Vec::with_capacity(frames + 1);
-    let mut times = Vec::with_capacity(frames + 1);
-    let mut first_contact = None;
-    let (records, failure) = bake::run(&variant, frames, &AtomicBool::new(false), |sim, record| {
-        if first_contact.is_none() && record.contacts + record.triangle_contacts > 0 {
-            first_contact = Some(record.frame);
+    variant
+}
+
+impl Reference {
+    /// Runs the reference of `scene` over at most `frames` frames: until the
+    /// end of the contact window (the first [`CONTACT_WINDOW_S`] after the
+    /// first frame that ends in contact with a collider or the cloth itself;
+    /// the whole run if there is none), or to the last frame for
+    /// [`ErrorMeasure::WithEndState`].
+    pub fn run(scene: &Scene, frames: usize, measure: ErrorMeasure) -> Result<Reference, BakeError> {
+        let diagonal_m = rest_diagonal(scene)?;
+        let refined = variant(scene, scene.steps_per_frame * REFERENCE_REFINEMENT, REFERENCE_TOLERANCE);
+        let stop = AtomicBool::new(false);
+        // Frames before the first contact, kept in case there is none.
+        let mut before_contact = Vec::new();
+        let mut window_frames = Vec::new();
+        let mut window: Option<(usize, f64)> = None;
+        let mut end = None;
+        let (_, failure) = bake::run(&refined, frames, &stop, |sim, record| {
+            let in_contact = record.contacts + record.triangle_contacts > 0;
+            match window {
+                None if in_contact => window = Some((record.frame, record.time_s + CONTACT_WINDOW_S)),
+                None => before_contact.push(sim.positions().to_vec()),
+                Some(_) => {}
+            }
+            let open = window.is_some_and(|(_, until)| record.time_s <= until + 1e-9);
+            if open {
+                window_frames.push(sim.positions().to_vec());
+            }
+            if record.frame == frames && measure == ErrorMeasure::WithEndState {
+                end = Some((record.frame, sim.positions().to_vec()));
+            } else if window.is_some() && !open && measure == ErrorMeasure::ContactWindow {
+                stop.store(true, Ordering::Relaxed);
+            }
+            Ok(())
+        })?;
+        if let Some(failure) = failure {
+            return Err(failure);
         }
-        positions.push(sim.positions().to_vec());
-        times.push(record.time_s);
-        Ok(())
-    })?;
-    if let Some(failure) = failure {
-        return Err(failure);
+        let window = match window {
+            Some((first, _)) => first..=first + window_frames.len() - 1,
+            None => {
+                window_frames = before_contact;
+                0..=window_frames.len() - 1
+            }
+        };
+        Ok(Reference { window, window_frames, end, diagonal_m })
     }
-    let summary = BakeSummary::new(&variant, &records, frames, None);
-    Ok(Trajectory { frames: positions, times, first_contact, summary })
+
+    /// Frames a run must cover to be measured against this reference.
+    pub fn frames_needed(&self) -> usize {
+        self.end.as_ref().map_or(*self.window.end(), |(frame, _)| *frame)
+    }
+
+    /// The frames of the contact window.
+    pub fn contact_window(&self) -> RangeInclusive<usize> {
+        self.window.clone()
+    }
+
+    /// A meter of one run's errors against this reference.
+    pub fn meter(&self) -> ErrorMeter<'_> {
+        ErrorMeter { reference: self, window_sum: 0.0, window_frames: 0, end: None }
+    }
+}
+
+/// Accumulates a run's errors against a reference as its frames end.
+#[derive(Clone, Debug)]
+pub struct ErrorMeter<'a> {
+    reference: &'a Reference,
+    window_sum: f64,
+    window_frames: usize,
+    end: Option<f64>,
+}
+
+impl ErrorMeter<'_> {
+    /// Compares the run's `positions` (m) at the end of frame `frame`.
+    pub fn record(&mut self, frame: usize, positions: &[Vector3<f64>]) {
+        let reference = self.reference;
+        if reference.window.contains(&frame) {
+            let expected = &reference.window_frames[frame - reference.window.start()];
+            self.window_sum += relative_rms(positions, expected, reference.diagonal_m);
+            self.window_frames += 1;
+        }
+        if let Some((last, expected)) = &reference.end
+            && *last == frame
+        {
+            self.end = Some(relative_rms(positions, expected, reference.diagonal_m));
+        }
+    }
+
+    /// The errors of the frames recorded so far.
+    pub fn errors(&self) -> RunErrors {
+        RunErrors { contact: self.window_sum / self.window_frames.max(1) as f64, end: self.end }
+    }
 }
 
 /// RMS over vertices of `|a − b|`, divided by `scale`.
 pub fn relative_rms(a: &[Vector3<f64>], b: &[Vector3<f64>], scale: f64) -> f64 {
     let sum: f64 = a.iter().zip(b).map(|(p, q)| (p - q).norm_squared()).sum();
     (sum / a.len().max(1) as f64).sqrt() / scale
-}
-
-/// The frames the contact-window error averages over: from the reference's
-/// first contact for [`CONTACT_WINDOW_S`] (the whole run if it never touches).
-pub fn contact_window(reference: &Trajectory) -> std::ops::RangeInclusive<usize> {
-    let last = reference.frames.len() - 1;
-    let Some(start) = reference.first_contact else { return 0..=last };
-    let end_time = reference.times[start] + CONTACT_WINDOW_S;
-    let end = (start..=last).take_while(|&f| reference.times[f] <= end_time + 1e-9).last().unwrap_or(start);
-    start..=end
-}
-
-/// Contact-window and end errors of `run` against `reference`, relative to
-/// the rest diagonal `diagonal` (m).
-pub fn errors(run: &Trajectory, reference: &Trajectory, diagonal: f64) -> (f64, f64) {
-    let window = contact_window(reference);
-    let count = window.clone().count() as f64;
-    let windowed: f64 =
-        window.map(|f| relative_rms(&run.frames[f], &reference.frames[f], diagonal)).sum::<f64>() / count;
-    let last = reference.frames.len() - 1;
-    (windowed, relative_rms(&run.frames[last], &reference.frames[last], diagonal))
 }
 
 /// Marks the points no other point beats on both speed and contact error.
@@ -134,33 +211,38 @@ pub fn rest_diagonal(scene: &Scene) -> Result<f64, BakeError> {
     Ok((hi - lo).norm())
 }
 
-/// Runs the reference, then every combination of `steps` and `tolerances`,
-/// logging each run as it starts. Returns the points, Pareto front marked.
+/// Runs the reference, then every combination of `steps` and `tolerances`
+/// over the frames the errors need, logging each run as it starts. Returns
+/// the points, Pareto front marked.
 pub fn sweep(
     scene: &Scene,
     steps: &[u32],
     tolerances: &[f64],
     frames: Option<usize>,
+    measure: ErrorMeasure,
     log: impl Fn(&str),
 ) -> Result<Vec<AccuracyPoint>, BakeError> {
     let frames = frames.map_or(scene.frame_count, |n| n.min(scene.frame_count));
-    let diagonal = rest_diagonal(scene)?;
     let reference_steps = scene.steps_per_frame * REFERENCE_REFINEMENT;
-    log(&format!("reference: {reference_steps} steps per frame, tolerance {REFERENCE_TOLERANCE:e} ..."));
-    let reference = trajectory(scene, reference_steps, REFERENCE_TOLERANCE, frames)?;
+    log(&format!(
+        "{}: reference, {reference_steps} steps per frame, tolerance {REFERENCE_TOLERANCE:e} ...",
+        scene.name
+    ));
+    let reference = Reference::run(scene, frames, measure)?;
     let mut points = Vec::new();
     for &steps_per_frame in steps {
         for &tolerance in tolerances {
-            log(&format!("{steps_per_frame} steps per frame, tolerance {tolerance:e} ..."));
-            let run = trajectory(scene, steps_per_frame, tolerance, frames)?;
-            let (contact_error, end_error) = errors(&run, &reference, diagonal);
+            log(&format!("{}: {steps_per_frame} steps per frame, tolerance {tolerance:e} ...", scene.name));
+            let run = variant(scene, steps_per_frame, tolerance);
+            let (summary, errors) = super::measure(&run, Some(reference.frames_needed()), Some(&reference))?;
+            let errors = errors.unwrap_or_default();
             points.push(AccuracyPoint {
                 steps_per_frame,
                 tolerance,
-                ms_per_frame: run.summary.ms_per_frame_median,
-                contact_error,
-                end_error,
-                max_strain: run.summary.max_strain,
+                ms_per_frame: summary.ms_per_frame_median,
+                contact_error: errors.contact,
+                end_error: errors.end,
+                max_strain: summary.max_strain,
                 pareto: false,
             });
         }
@@ -178,12 +260,12 @@ pub fn markdown_table(points: &[AccuracyPoint]) -> String {
     for p in points {
         let _ = writeln!(
             out,
-            "| {} | {:e} | {:.1} | {:.2e} | {:.2e} | {:.2} % | {} |",
+            "| {} | {:e} | {:.1} | {:.2e} | {} | {:.2} % | {} |",
             p.steps_per_frame,
             p.tolerance,
             p.ms_per_frame,
             p.contact_error,
-            p.end_error,
+            p.end_error.map_or("-".into(), |e| format!("{e:.2e}")),
             p.max_strain * 100.0,
             if p.pareto { "●" } else { "" }
         );
@@ -191,25 +273,41 @@ pub fn markdown_table(points: &[AccuracyPoint]) -> String {
     out
 }
 
-/// Writes `accuracy.csv`, `accuracy.md` and the `speed_against_error`
-/// chart (PNG and SVG) of `scene`'s sweep into `dir`.
-pub fn write_results(dir: &std::path::Path, scene: &str, points: &[AccuracyPoint]) -> Result<(), PlotError> {
+/// One scene's sweep.
+pub type SceneSweep = (String, Vec<AccuracyPoint>);
+
+/// Writes `accuracy.csv`, `accuracy.md` (one table per scene) and the
+/// `speed_against_error` chart (one curve per scene, PNG and SVG) into `dir`.
+pub fn write_results(dir: &std::path::Path, sweeps: &[SceneSweep]) -> Result<(), PlotError> {
     std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
-    write_file(&dir.join("accuracy.csv"), |w| std::io::Write::write_all(w, csv(points).as_bytes()))?;
-    let report = format!("{}\n![speed against error](speed_against_error.png)\n", markdown_table(points));
+    write_file(&dir.join("accuracy.csv"), |w| std::io::Write::write_all(w, csv(sweeps).as_bytes()))?;
+    let mut report = String::new();
+    for (scene, points) in sweeps {
+        let _ = writeln!(report, "### {scene}\n\n{}", markdown_table(points));
+    }
+    report += "![speed against error](speed_against_error.png)\n";
     write_file(&dir.join("accuracy.md"), |w| std::io::Write::write_all(w, report.as_bytes()))?;
-    super::plots::speed_against_error(dir, &[(scene.to_owned(), points.to_vec())])
+    super::plots::speed_against_error(dir, sweeps)
 }
 
-/// The sweep as CSV, one row per point.
-pub fn csv(points: &[AccuracyPoint]) -> String {
-    let mut out = String::from("steps_per_frame,tolerance,ms_per_frame,contact_error,end_error,max_strain,pareto\n");
-    for p in points {
-        let _ = writeln!(
-            out,
-            "{},{:e},{:.4},{:.6e},{:.6e},{:.6},{}",
-            p.steps_per_frame, p.tolerance, p.ms_per_frame, p.contact_error, p.end_error, p.max_strain, p.pareto
-        );
+/// The sweeps as CSV, one row per scene and point.
+pub fn csv(sweeps: &[SceneSweep]) -> String {
+    let mut out =
+        String::from("scene,steps_per_frame,tolerance,ms_per_frame,contact_error,end_error,max_strain,pareto\n");
+    for (scene, points) in sweeps {
+        for p in points {
+            let _ = writeln!(
+                out,
+                "{scene},{},{:e},{:.4},{:.6e},{},{:.6},{}",
+                p.steps_per_frame,
+                p.tolerance,
+                p.ms_per_frame,
+                p.contact_error,
+                p.end_error.map_or(String::new(), |e| format!("{e:.6e}")),
+                p.max_strain,
+                p.pareto
+            );
+        }
     }
     out
 }
@@ -224,7 +322,7 @@ mod tests {
             tolerance: 1e-3,
             ms_per_frame: ms,
             contact_error: error,
-            end_error: 0.0,
+            end_error: None,
             max_strain: 0.0,
             pareto: false,
         }
@@ -237,6 +335,26 @@ mod tests {
         // RMS = sqrt((25 + 0) / 2).
         assert!((relative_rms(&a, &b, 2.0) - (12.5f64).sqrt() / 2.0).abs() < 1e-15);
         assert_eq!(relative_rms(&a, &a, 1.0), 0.0);
+    }
+
+    #[test]
+    fn the_meter_averages_over_the_window_and_reads_the_end_frame() {
+        let at = |x: f64| vec![Vector3::new(x, 0.0, 0.0)];
+        let reference = Reference {
+            window: 2..=3,
+            window_frames: vec![at(0.0), at(0.0)],
+            end: Some((5, at(1.0))),
+            diagonal_m: 2.0,
+        };
+        let mut meter = reference.meter();
+        for (frame, x) in [(1, 9.0), (2, 0.2), (3, 0.6), (4, 9.0), (5, 1.5)] {
+            meter.record(frame, &at(x));
+        }
+        let errors = meter.errors();
+        // Window: (0.2 + 0.6) / 2 over the diagonal 2; end: 0.5 / 2.
+        assert!((errors.contact - 0.2).abs() < 1e-15, "{errors:?}");
+        assert_eq!(errors.end, Some(0.25));
+        assert_eq!(reference.frames_needed(), 5);
     }
 
     #[test]

@@ -10,6 +10,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
+use self::accuracy::{ErrorMeasure, Reference, RunErrors};
 use crate::bake::summary::BakeSummary;
 use crate::bake::{self, BakeError};
 use crate::io::atomic::{WriteError, write_file};
@@ -26,6 +27,8 @@ pub struct BenchResult {
     pub summary: BakeSummary,
     /// Peak resident memory of the process while it ran, MiB (Linux only).
     pub peak_memory_mib: Option<f64>,
+    /// Its errors against the reference run, if measured.
+    pub errors: Option<RunErrors>,
 }
 
 /// Why a benchmark could not run.
@@ -60,9 +63,10 @@ pub enum Suite {
     Paper,
     /// The hard cases of SCENES.md (stability and robustness).
     Hard,
-    /// Speed against error on `drape_sphere`: 1, 2, 4, 8 steps per frame ×
-    /// tolerances 1e-2, 1e-3, 1e-4 against the 16× reference (as `drape
-    /// bench accuracy`).
+    /// Speed against error on `drape_sphere` (contact window and end state),
+    /// `drape_table` and `skirt_walk` (contact window): 1, 2, 4, 8 steps per
+    /// frame × tolerances 1e-2, 1e-3, 1e-4 against the 16× reference (as
+    /// `drape bench accuracy`).
     Accuracy,
     /// The solver on `drape_sphere` at N = 64 and N = 128, self-collision
     /// off (the core issue's measure).
@@ -91,11 +95,19 @@ struct Case {
     self_collision: bool,
     /// Strain limiting (`None`: as the scene file has it).
     limiting: Option<StrainLimiting>,
+    /// Which errors against a reference run to measure (`None`: none).
+    error: Option<ErrorMeasure>,
 }
 
 impl Case {
+    /// A case measured over its contact window against the reference.
     const fn new(scene: &'static str, resolution: Option<usize>, self_collision: bool) -> Self {
-        Case { scene, resolution, self_collision, limiting: None }
+        Case { scene, resolution, self_collision, limiting: None, error: Some(ErrorMeasure::ContactWindow) }
+    }
+
+    /// The same case, its error measured as `error`.
+    const fn with_error(self, error: Option<ErrorMeasure>) -> Self {
+        Case { error, ..self }
     }
 
     /// The case's name in tables, e.g. `drape_sphere N=64 (no self-collision)`.
@@ -133,7 +145,7 @@ impl Case {
 /// Standard scenes of the collision suite, at the sizes to run them.
 const COLLISION_CASES: [Case; 6] = [
     Case::new("drape_table", None, true),
-    Case::new("drape_sphere", Some(64), true),
+    Case::new("drape_sphere", Some(64), true).with_error(Some(ErrorMeasure::WithEndState)),
     Case::new("pillars", None, true),
     Case::new("projectile", None, true),
     Case::new("needles", None, true),
@@ -142,7 +154,7 @@ const COLLISION_CASES: [Case; 6] = [
 
 /// The paper's experiments (SCENES.md).
 const PAPER_CASES: [Case; 7] = [
-    Case::new("drape_sphere", None, true),
+    Case::new("drape_sphere", None, true).with_error(Some(ErrorMeasure::WithEndState)),
     Case::new("drape_sphere", Some(128), true),
     Case::new("drape_table", None, true),
     Case::new("pillars", None, true),
@@ -163,18 +175,35 @@ const HARD_CASES: [Case; 8] = [
     Case::new("bad_mesh", None, true),
 ];
 
+/// Scenes of the accuracy suite, with the errors each is measured by: the
+/// static `drape_sphere` also at its end state.
+pub const ACCURACY_SCENES: [(&str, ErrorMeasure); 3] = [
+    ("drape_sphere", ErrorMeasure::WithEndState),
+    ("drape_table", ErrorMeasure::ContactWindow),
+    ("skirt_walk", ErrorMeasure::ContactWindow),
+];
+/// Steps per frame the accuracy suite sweeps.
+pub const ACCURACY_STEPS: [u32; 4] = [1, 2, 4, 8];
+/// Linear-solver tolerances the accuracy suite sweeps.
+pub const ACCURACY_TOLERANCES: [f64; 3] = [1e-2, 1e-3, 1e-4];
+
 /// Grid sizes of the scaling suite, vertices per side.
 const SCALING_SIZES: [usize; 4] = [32, 64, 128, 256];
 
-/// The cases of `suite`.
+/// The cases of `suite`. Every case but the scaling suite's (whose
+/// references at N = 256 would take hours) is measured against its reference;
+/// `drape_sphere` at N = 64, a static scene, also at its end state.
 fn cases(suite: Suite) -> Vec<Case> {
-    let core = [Case::new("drape_sphere", Some(64), false), Case::new("drape_sphere", Some(128), false)];
+    let end_state = Some(ErrorMeasure::WithEndState);
+    let core =
+        [Case::new("drape_sphere", Some(64), false).with_error(end_state), Case::new("drape_sphere", Some(128), false)];
     let limitings = [StrainLimiting::Projection, StrainLimiting::Clamp, StrainLimiting::Off];
     let constraints = ["drape_sphere", "stiff", "large_step"]
         .into_iter()
         .flat_map(|scene| limitings.map(|limiting| Case { limiting: Some(limiting), ..Case::new(scene, None, true) }));
-    let scaling =
-        SCALING_SIZES.into_iter().flat_map(|n| [true, false].map(|own| Case::new("drape_sphere", Some(n), own)));
+    let scaling = SCALING_SIZES
+        .into_iter()
+        .flat_map(|n| [true, false].map(|own| Case::new("drape_sphere", Some(n), own).with_error(None)));
     match suite {
         Suite::Core => core.to_vec(),
         Suite::Collisions => COLLISION_CASES.to_vec(),
@@ -194,28 +223,53 @@ fn cases(suite: Suite) -> Vec<Case> {
     }
 }
 
-/// Runs `suite`, logging each case as it starts.
+/// Runs `suite`, logging each case as it starts: its reference run first
+/// (if it is measured against one), then the case itself.
 pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Vec<BenchResult>, BenchError> {
     let mut results = Vec::new();
     for case in cases(suite) {
         let scene = case.load()?;
         let name = case.name(&scene);
+        let length = frames.map_or(scene.frame_count, |n| n.min(scene.frame_count));
+        let reference = match case.error {
+            Some(error) => {
+                log(&format!("running {name}: its reference ..."));
+                Some(Reference::run(&scene, length, error)?)
+            }
+            None => None,
+        };
         log(&format!("running {name} ..."));
         memory::reset_peak();
-        let summary = measure(&scene, frames)?;
-        results.push(BenchResult { summary, case: name, peak_memory_mib: memory::peak_mib() });
+        let (summary, errors) = measure(&scene, frames, reference.as_ref())?;
+        results.push(BenchResult { summary, case: name, peak_memory_mib: memory::peak_mib(), errors });
     }
     Ok(results)
 }
 
-/// Runs `scene` (the first `frames` frames, or all) and summarises it.
-pub fn measure(scene: &Scene, frames: Option<usize>) -> Result<BakeSummary, BakeError> {
+/// Runs `scene` (the first `frames` frames, or all) and summarises it, with
+/// its errors against `reference` when one is given.
+pub fn measure(
+    scene: &Scene,
+    frames: Option<usize>,
+    reference: Option<&Reference>,
+) -> Result<(BakeSummary, Option<RunErrors>), BakeError> {
     let frames = frames.map_or(scene.frame_count, |n| n.min(scene.frame_count));
-    let (records, failure) = bake::run(scene, frames, &AtomicBool::new(false), |_, _| Ok(()))?;
+    let mut meter = reference.map(Reference::meter);
+    let (records, failure) = bake::run(scene, frames, &AtomicBool::new(false), |sim, record| {
+        if let Some(meter) = &mut meter {
+            meter.record(record.frame, sim.positions());
+        }
+        Ok(())
+    })?;
     if let Some(failure) = failure {
         return Err(failure);
     }
-    Ok(BakeSummary::new(scene, &records, frames, None))
+    Ok((BakeSummary::new(scene, &records, frames, None), meter.map(|m| m.errors())))
+}
+
+/// A relative error as a percentage of the cloth's diagonal, `-` if absent.
+fn percent(error: Option<f64>) -> String {
+    error.map_or("-".into(), |e| format!("{:.3} %", e * 100.0))
 }
 
 /// Names of the step's stages, in pipeline order.
@@ -229,18 +283,25 @@ pub fn markdown_table(results: &[BenchResult]) -> String {
     for stage in stage_names() {
         let _ = write!(out, " {stage} |");
     }
-    out += " CG it/step | max strain |\n|---|---:|---:|---:|";
+    out += " CG it/step | max strain | error (contact window) | error (end) |\n|---|---:|---:|---:|";
     for _ in stage_names() {
         out += "---:|";
     }
-    out += "---:|---:|\n";
+    out += "---:|---:|---:|---:|\n";
     for r in results {
         let s = &r.summary;
         let _ = write!(out, "| {} | {} | {} | {:.2} |", r.case, s.vertices, s.threads, s.ms_per_frame_median);
         for stage in stage_names() {
             let _ = write!(out, " {:.2} |", s.stage_ms_per_frame_median.get(stage).copied().unwrap_or(0.0));
         }
-        let _ = writeln!(out, " {:.1} | {:.3} % |", s.cg_iterations_per_step_mean, s.max_strain * 100.0);
+        let _ = writeln!(
+            out,
+            " {:.1} | {:.3} % | {} | {} |",
+            s.cg_iterations_per_step_mean,
+            s.max_strain * 100.0,
+            percent(r.errors.map(|e| e.contact)),
+            percent(r.errors.and_then(|e| e.end))
+        );
     }
     out
 }
@@ -319,7 +380,7 @@ pub fn csv(results: &[BenchResult]) -> String {
     }
     out += ",cg_iterations_per_step,max_strain,contacts_max,collision_tests,collision_tests_without_ownership,\
             impact_zone_steps,intersections_total,penetrations_total,projection_iterations_per_step,\
-            projection_fallbacks,rollbacks,peak_memory_mib\n";
+            projection_fallbacks,rollbacks,peak_memory_mib,error_contact_window,error_end\n";
     for r in results {
         let s = &r.summary;
         let _ = write!(
@@ -345,8 +406,15 @@ pub fn csv(results: &[BenchResult]) -> String {
             s.projection_fallbacks,
             s.rollbacks
         );
-        out.pop(); // the newline, to append the memory column
-        let _ = writeln!(out, ",{}", r.peak_memory_mib.map_or(String::new(), |m| format!("{m:.1}")));
+        out.pop(); // the newline, to append the memory and error columns
+        let optional = |value: Option<f64>, digits: usize| value.map_or(String::new(), |v| format!("{v:.digits$e}"));
+        let _ = writeln!(
+            out,
+            ",{},{},{}",
+            r.peak_memory_mib.map_or(String::new(), |m| format!("{m:.1}")),
+            optional(r.errors.map(|e| e.contact), 6),
+            optional(r.errors.and_then(|e| e.end), 6)
+        );
     }
     out
 }
