@@ -345,7 +345,10 @@ fn preconditioners_change_the_iterations_not_the_answer_on_hanging_cloth() {
     let (cholesky, x_cholesky) = iterations("cholesky");
     assert!(multigrid * 4 < jacobi, "multigrid {multigrid} vs block-Jacobi {jacobi} iterations");
     let steps = 30;
-    assert!(cholesky <= 3 * steps, "a kept or fresh factor: {cholesky} iterations in {steps} steps");
+    // The factor leaves the hinges' corner-to-corner couplings out, so at
+    // this tight tolerance a fresh one needs a few iterations, not one.
+    assert!(cholesky <= 8 * steps, "a kept or fresh factor: {cholesky} iterations in {steps} steps");
+    assert!(cholesky * 10 < jacobi, "cholesky {cholesky} vs block-Jacobi {jacobi} iterations");
     for (name, x) in [("multigrid", &x_multigrid), ("cholesky", &x_cholesky)] {
         let apart = x_jacobi.iter().zip(x).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
         assert!(apart < 1e-3, "{name} solves the same problem: {apart} m apart after 0.5 s");
@@ -359,12 +362,12 @@ fn preconditioners_change_the_iterations_not_the_answer_on_hanging_cloth() {
 fn error_against_the_reference_halves_with_the_step_before_contact() {
     let scene = drape_sphere_scene(16);
     let frames = 5;
-    let reference = accuracy::trajectory(&scene, 32, 1e-10, frames).unwrap();
-    assert_eq!(reference.first_contact, None, "still falling freely after {frames} frames");
-    let diagonal = accuracy::rest_diagonal(&scene).unwrap();
+    let reference = accuracy::Reference::run(&scene, frames, accuracy::ErrorMeasure::WithEndState).unwrap();
+    assert_eq!(reference.contact_window(), 0..=frames, "still falling freely after {frames} frames");
     let error = |steps: u32| {
-        let run = accuracy::trajectory(&scene, steps, 1e-10, frames).unwrap();
-        accuracy::relative_rms(&run.frames[frames], &reference.frames[frames], diagonal)
+        let run = accuracy::variant(&scene, steps, 1e-10);
+        let (_, errors) = drape::bench::measure(&run, Some(frames), Some(&reference)).unwrap();
+        errors.and_then(|e| e.end).unwrap()
     };
     let errors = [error(1), error(2), error(4)];
     for pair in errors.windows(2) {
