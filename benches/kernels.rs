@@ -29,21 +29,20 @@ use drape::sim::pcg::{
     self, Constraint, FilteredSystem, PcgSettings, PcgWorkspace, PreconditionerKind, Preconditioning,
 };
 
-/// Solver step of the standard scene, s (2 steps per 1/30 s frame).
-const STEP_S: f64 = 1.0 / 60.0;
-/// Steps before measuring: 0.5 s, the cloth settled over the sphere with folds.
+/// Steps before measuring: 0.5 s at the scene's 2 steps per 1/30 s frame, the
+/// cloth settled over the sphere with folds.
 const SETTLING_STEPS: usize = 30;
 /// Collision thickness the boxes are grown by, m.
 const THICKNESS_M: f64 = 0.0025;
 
-/// `drape_sphere` after [`SETTLING_STEPS`] steps.
-fn draped_simulator() -> Simulator {
+/// `drape_sphere` after [`SETTLING_STEPS`] steps, and its step (s).
+fn draped_simulator() -> (Simulator, f64) {
     let scene = Scene::load(&drape::bench::standard_scene("drape_sphere")).expect("the standard scene loads");
     let mut simulator = scene.simulator().expect("the standard scene simulates");
     for _ in 0..SETTLING_STEPS {
-        simulator.step(STEP_S).expect("the standard scene steps");
+        simulator.step(scene.step_duration()).expect("the standard scene steps");
     }
-    simulator
+    (simulator, scene.step_duration())
 }
 
 /// Every triangle's box swept from `start` to `end`, grown by the thickness.
@@ -54,34 +53,30 @@ fn swept_triangle_boxes(triangles: &[[u32; 3]], start: &[Vector3<f64>], end: &[V
     }));
 }
 
-fn assembly(c: &mut Criterion) {
-    let simulator = draped_simulator();
+/// Assembly, the factor and one PCG iteration on the settled cloth. The
+/// solve's constraints are all free (the contacts' filter changes the
+/// factor's values, not its cost).
+fn solver(c: &mut Criterion) {
+    let (simulator, step_s) = draped_simulator();
     let cloth = simulator.cloth();
+    let n = cloth.vertex_count();
     let layout = SystemLayout::new(cloth);
     let (particles, springs) = (ParticleCoefficients::new(cloth), SpringCoefficients::new(cloth));
     let mut buffers = SystemBuffers::default();
-    let input = AssemblyInput { x: simulator.positions(), v: simulator.velocities(), h: STEP_S };
-    c.bench_function("springs: forces and Jacobians (drape_sphere, 4096 vertices)", |b| {
+    let input = AssemblyInput { x: simulator.positions(), v: simulator.velocities(), h: step_s };
+    c.bench_function(&format!("springs: forces and Jacobians (drape_sphere, {n} vertices)"), |b| {
         b.iter(|| evaluate_springs(cloth, &springs, black_box(&input), &mut buffers))
     });
     c.bench_function("assembly: block matrix and right-hand side (drape_sphere)", |b| {
         b.iter(|| assemble(&layout, &particles, black_box(&input), &mut buffers))
     });
-}
 
-fn linear_solve(c: &mut Criterion) {
-    let simulator = draped_simulator();
-    let cloth = simulator.cloth();
-    let layout = SystemLayout::new(cloth);
-    let (particles, springs) = (ParticleCoefficients::new(cloth), SpringCoefficients::new(cloth));
-    let mut buffers = SystemBuffers::default();
-    let input = AssemblyInput { x: simulator.positions(), v: simulator.velocities(), h: STEP_S };
+    // Assembled here too: criterion may skip the benches above (a filter).
     evaluate_springs(cloth, &springs, &input, &mut buffers);
     assemble(&layout, &particles, &input, &mut buffers);
-    let n = cloth.vertex_count();
     let constraints = vec![Constraint::Free; n];
     let typical: Vec<Vector3<f64>> =
-        particles.mass.iter().map(|m| Vector3::new(0.0, -9.81 * m * STEP_S, 0.0)).collect();
+        particles.mass.iter().map(|m| Vector3::new(0.0, -9.81 * m * step_s, 0.0)).collect();
     let mut cholesky = LaggedCholesky::new(&layout.pattern, &cloth.spring_ends).expect("the pattern analyses");
 
     c.bench_function("cholesky: numeric factor (drape_sphere)", |b| {
@@ -108,17 +103,19 @@ fn linear_solve(c: &mut Criterion) {
     });
 }
 
+/// The swept-box hierarchy over the settled cloth's triangles, swept over
+/// one step at their current velocities.
 fn hierarchy(c: &mut Criterion) {
-    let simulator = draped_simulator();
+    let (simulator, step_s) = draped_simulator();
     let triangles = &simulator.cloth().triangles;
     let start = simulator.positions().to_vec();
-    let end: Vec<Vector3<f64>> = start.iter().zip(simulator.velocities()).map(|(x, v)| x + v * STEP_S).collect();
+    let end: Vec<Vector3<f64>> = start.iter().zip(simulator.velocities()).map(|(x, v)| x + v * step_s).collect();
     let mut boxes = Vec::new();
     swept_triangle_boxes(triangles, &start, &end, &mut boxes);
     let mut bvh = SweptBvh::new(&boxes);
     let mut pairs = Vec::new();
 
-    c.bench_function("bvh: swept boxes and refit (drape_sphere, 7938 triangles)", |b| {
+    c.bench_function(&format!("bvh: swept boxes and refit (drape_sphere, {} triangles)", triangles.len()), |b| {
         b.iter(|| {
             swept_triangle_boxes(triangles, &start, &end, &mut boxes);
             bvh.update(black_box(&boxes));
@@ -132,10 +129,12 @@ fn hierarchy(c: &mut Criterion) {
     });
 }
 
+/// A point moving from `start` to `end` (m) over the step.
 fn path(start: [f64; 3], end: [f64; 3]) -> Path {
     Path { start: Vector3::from(start), end: Vector3::from(end) }
 }
 
+/// Vertex-triangle and edge-edge CCD of one pair, hit and miss.
 fn continuous_collision(c: &mut Criterion) {
     // A vertex falling through the middle of a still triangle, and one
     // passing beside it (the cubic's roots exist but the point is outside).
@@ -165,6 +164,7 @@ fn continuous_collision(c: &mut Criterion) {
     });
 }
 
+/// Posing and skinning the demo body at one time of its walk.
 fn skinning(c: &mut Criterion) {
     let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/bodies/female_walk.fbx");
     let body = read_fbx(&file).expect("the demo body loads");
@@ -174,5 +174,5 @@ fn skinning(c: &mut Criterion) {
     c.bench_function(&name, |b| b.iter(|| body.pose_into(&motion, black_box(0.4), &mut posed)));
 }
 
-criterion_group!(kernels, assembly, linear_solve, hierarchy, continuous_collision, skinning);
+criterion_group!(kernels, solver, hierarchy, continuous_collision, skinning);
 criterion_main!(kernels);

@@ -714,18 +714,30 @@ fn run_accuracy(
         return Err(Failure::Input(format!("--tolerances: {bad} is not between 0 and 1")));
     }
     let mut sweeps = Vec::new();
+    let mut failures = Vec::new();
     for (path, measure) in scenes {
         let scene = Scene::load(path).map_err(input)?;
-        let points = bench::accuracy::sweep(&scene, steps, tolerances, frames, *measure, |line| eprintln!("{line}"))
-            .map_err(|e| Failure::Internal(e.to_string()))?;
-        println!("{}\n{}", scene.name, bench::accuracy::markdown_table(&points));
-        sweeps.push((scene.name, points));
+        match bench::accuracy::sweep(&scene, steps, tolerances, frames, *measure, |line| eprintln!("{line}")) {
+            Ok(points) => {
+                println!("{}\n{}", scene.name, bench::accuracy::markdown_table(&points));
+                sweeps.push((scene.name, points));
+            }
+            Err(failure) => {
+                eprintln!("{}: the reference run failed ({failure}); no sweep", scene.name);
+                failures.push(format!("{}: {failure}", scene.name));
+            }
+        }
     }
-    if let Some(dir) = out {
+    if let Some(dir) = out
+        && !sweeps.is_empty()
+    {
         bench::accuracy::write_results(dir, &sweeps).map_err(input)?;
         println!("wrote {}", dir.display());
     }
-    Ok(())
+    match failures.is_empty() {
+        true => Ok(()),
+        false => Err(Failure::Internal(failures.join("; "))),
+    }
 }
 
 fn run_fabric_test(presets: &[String], drape: bool, across: usize, pictures: Option<&Path>) -> Result<(), Failure> {

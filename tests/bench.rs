@@ -68,10 +68,11 @@ fn the_error_is_zero_against_itself_and_grows_with_the_step() {
         measure(&run, Some(frames), Some(&reference)).unwrap().1.unwrap()
     };
     let itself = errors_at(2 * accuracy::REFERENCE_REFINEMENT, accuracy::REFERENCE_TOLERANCE);
-    assert_eq!((itself.contact, itself.end), (0.0, Some(0.0)));
-    let (coarse, medium, fine) = (errors_at(1, 1e-6), errors_at(2, 1e-6), errors_at(4, 1e-6));
-    assert!(coarse.contact > medium.contact && medium.contact > fine.contact && fine.contact > 0.0);
-    assert!(fine.end.is_some_and(|e| e > 0.0));
+    assert_eq!((itself.contact, itself.end), (Some(0.0), Some(0.0)));
+    let contact = |steps: u32| errors_at(steps, 1e-6).contact.unwrap();
+    let (coarse, medium, fine) = (contact(1), contact(2), contact(4));
+    assert!(coarse > medium && medium > fine && fine > 0.0, "{coarse} {medium} {fine}");
+    assert!(errors_at(4, 1e-6).end.is_some_and(|e| e > 0.0));
 }
 
 #[test]
@@ -82,6 +83,9 @@ fn a_contact_window_reference_stops_at_the_end_of_the_window() {
     // 0.5 s at 30 frames per second after the first contact.
     assert_eq!(window.clone().count(), 16, "{window:?}");
     assert_eq!(reference.frames_needed(), *window.end());
+    // A run that stops inside the window has no contact-window error.
+    let (_, short) = measure(&scene, Some(*window.end() - 1), Some(&reference)).unwrap();
+    assert_eq!(short.unwrap().contact, None);
 }
 
 #[test]

@@ -5,9 +5,12 @@
 //! The error of a run is the RMS over vertices of `|x − x_ref|` divided by
 //! the cloth's rest diagonal, averaged over the frames of the first 0.5 s
 //! after the reference's first contact (before folds make the motion
-//! chaotic), and separately at the last frame (the end state of a static
-//! scene). Runs no other run beats on both speed and contact-window error
-//! form the Pareto front.
+//! chaotic; every frame if it never touches anything), and, for static
+//! scenes, separately at the last frame (the end state). The reference keeps
+//! only those frames and stops at the end of the window unless the end state
+//! is wanted; runs are compared frame by frame as they end ([`ErrorMeter`]).
+//! Runs no other run beats on both speed and contact-window error form the
+//! Pareto front.
 
 use std::fmt::Write as _;
 use std::ops::RangeInclusive;
@@ -26,6 +29,8 @@ pub const REFERENCE_REFINEMENT: u32 = 16;
 pub const REFERENCE_TOLERANCE: f64 = 1e-10;
 /// Length of the window after first contact over which errors are averaged, s.
 pub const CONTACT_WINDOW_S: f64 = 0.5;
+/// Slack when comparing frame times with the window's end, s.
+const TIME_SLACK_S: f64 = 1e-9;
 
 /// Which errors a reference run is kept for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,7 +46,8 @@ pub enum ErrorMeasure {
 /// are measured on.
 #[derive(Clone, Debug)]
 pub struct Reference {
-    /// Frames of the contact window.
+    /// Frames of the contact window (every frame after the initial one if
+    /// the reference never touches anything).
     window: RangeInclusive<usize>,
     /// Positions at each frame of the window, m.
     window_frames: Vec<Vec<Vector3<f64>>>,
@@ -54,8 +60,9 @@ pub struct Reference {
 /// A run's errors against a reference, relative to the cloth's rest diagonal.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RunErrors {
-    /// Mean relative RMS error over the contact window, unitless.
-    pub contact: f64,
+    /// Mean relative RMS error over the contact window, unitless; `None`
+    /// unless the run ended every frame of the window.
+    pub contact: Option<f64>,
     /// Relative RMS error at the last frame, if measured, unitless.
     pub end: Option<f64>,
 }
@@ -97,27 +104,32 @@ impl Reference {
     pub fn run(scene: &Scene, frames: usize, measure: ErrorMeasure) -> Result<Reference, BakeError> {
         let diagonal_m = rest_diagonal(scene)?;
         let refined = variant(scene, scene.steps_per_frame * REFERENCE_REFINEMENT, REFERENCE_TOLERANCE);
+        let frame_s = scene.frame_duration();
         let stop = AtomicBool::new(false);
         // Frames before the first contact, kept in case there is none.
         let mut before_contact = Vec::new();
         let mut window_frames = Vec::new();
+        // The first frame in contact and the time its window closes, s.
         let mut window: Option<(usize, f64)> = None;
         let mut end = None;
         let (_, failure) = bake::run(&refined, frames, &stop, |sim, record| {
-            let in_contact = record.contacts + record.triangle_contacts > 0;
-            match window {
-                None if in_contact => window = Some((record.frame, record.time_s + CONTACT_WINDOW_S)),
-                None => before_contact.push(sim.positions().to_vec()),
-                Some(_) => {}
+            if window.is_none() && record.contacts + record.triangle_contacts > 0 {
+                window = Some((record.frame, record.time_s + CONTACT_WINDOW_S));
+                before_contact = Vec::new();
             }
-            let open = window.is_some_and(|(_, until)| record.time_s <= until + 1e-9);
-            if open {
-                window_frames.push(sim.positions().to_vec());
+            match window {
+                None => before_contact.push(sim.positions().to_vec()),
+                Some((_, until)) if record.time_s <= until + TIME_SLACK_S => {
+                    window_frames.push(sim.positions().to_vec());
+                    let closes = record.time_s + frame_s > until + TIME_SLACK_S;
+                    if closes && measure == ErrorMeasure::ContactWindow {
+                        stop.store(true, Ordering::Relaxed);
+                    }
+                }
+                Some(_) => {}
             }
             if record.frame == frames && measure == ErrorMeasure::WithEndState {
                 end = Some((record.frame, sim.positions().to_vec()));
-            } else if window.is_some() && !open && measure == ErrorMeasure::ContactWindow {
-                stop.store(true, Ordering::Relaxed);
             }
             Ok(())
         })?;
@@ -127,8 +139,9 @@ impl Reference {
         let window = match window {
             Some((first, _)) => first..=first + window_frames.len() - 1,
             None => {
-                window_frames = before_contact;
-                0..=window_frames.len() - 1
+                // No contact: every frame but the initial one, which no run can miss.
+                window_frames = before_contact.split_off(1.min(before_contact.len()));
+                1..=window_frames.len()
             }
         };
         Ok(Reference { window, window_frames, end, diagonal_m })
@@ -139,7 +152,8 @@ impl Reference {
         self.end.as_ref().map_or(*self.window.end(), |(frame, _)| *frame)
     }
 
-    /// The frames of the contact window.
+    /// The frames of the contact window (every frame after the initial one
+    /// if the reference never touches anything).
     pub fn contact_window(&self) -> RangeInclusive<usize> {
         self.window.clone()
     }
@@ -165,19 +179,22 @@ impl ErrorMeter<'_> {
         let reference = self.reference;
         if reference.window.contains(&frame) {
             let expected = &reference.window_frames[frame - reference.window.start()];
+            debug_assert_eq!(positions.len(), expected.len(), "a run of another cloth");
             self.window_sum += relative_rms(positions, expected, reference.diagonal_m);
             self.window_frames += 1;
         }
         if let Some((last, expected)) = &reference.end
             && *last == frame
         {
+            debug_assert_eq!(positions.len(), expected.len(), "a run of another cloth");
             self.end = Some(relative_rms(positions, expected, reference.diagonal_m));
         }
     }
 
     /// The errors of the frames recorded so far.
     pub fn errors(&self) -> RunErrors {
-        RunErrors { contact: self.window_sum / self.window_frames.max(1) as f64, end: self.end }
+        let complete = self.window_frames > 0 && self.window_frames == self.reference.window.clone().count();
+        RunErrors { contact: complete.then(|| self.window_sum / self.window_frames as f64), end: self.end }
     }
 }
 
@@ -212,8 +229,11 @@ pub fn rest_diagonal(scene: &Scene) -> Result<f64, BakeError> {
 }
 
 /// Runs the reference, then every combination of `steps` and `tolerances`
-/// over the frames the errors need, logging each run as it starts. Returns
-/// the points, Pareto front marked.
+/// over the frames the errors need (to the end of the contact window, or of
+/// the scene for the end state: speed is the median over those frames),
+/// logging each run as it starts. A run that fails, or ends before the
+/// window does, is logged and left out. Returns the points, Pareto front
+/// marked; fails only if the reference does.
 pub fn sweep(
     scene: &Scene,
     steps: &[u32],
@@ -234,14 +254,24 @@ pub fn sweep(
         for &tolerance in tolerances {
             log(&format!("{}: {steps_per_frame} steps per frame, tolerance {tolerance:e} ...", scene.name));
             let run = variant(scene, steps_per_frame, tolerance);
-            let (summary, errors) = super::measure(&run, Some(reference.frames_needed()), Some(&reference))?;
-            let errors = errors.unwrap_or_default();
+            let (summary, contact, end) = match super::measure(&run, Some(reference.frames_needed()), Some(&reference))
+            {
+                Ok((summary, Some(RunErrors { contact: Some(contact), end }))) => (summary, contact, end),
+                Ok(_) => {
+                    log(&format!("{}: that run ended before the contact window did; left out", scene.name));
+                    continue;
+                }
+                Err(failure) => {
+                    log(&format!("{}: that run failed ({failure}); left out", scene.name));
+                    continue;
+                }
+            };
             points.push(AccuracyPoint {
                 steps_per_frame,
                 tolerance,
                 ms_per_frame: summary.ms_per_frame_median,
-                contact_error: errors.contact,
-                end_error: errors.end,
+                contact_error: contact,
+                end_error: end,
                 max_strain: summary.max_strain,
                 pareto: false,
             });
@@ -254,7 +284,8 @@ pub fn sweep(
 /// The sweep as a Markdown table, Pareto points marked.
 pub fn markdown_table(points: &[AccuracyPoint]) -> String {
     let mut out = String::from(
-        "| steps/frame | tolerance | ms/frame (median) | error, contact window | error, end | max strain | Pareto |\n\
+        "| steps/frame | tolerance | ms/frame (median over the frames run) | error, contact window | error, end \
+         | max strain | Pareto |\n\
          |---:|---:|---:|---:|---:|---:|:---:|\n",
     );
     for p in points {
@@ -352,9 +383,12 @@ mod tests {
         }
         let errors = meter.errors();
         // Window: (0.2 + 0.6) / 2 over the diagonal 2; end: 0.5 / 2.
-        assert!((errors.contact - 0.2).abs() < 1e-15, "{errors:?}");
+        assert!((errors.contact.unwrap() - 0.2).abs() < 1e-15, "{errors:?}");
         assert_eq!(errors.end, Some(0.25));
         assert_eq!(reference.frames_needed(), 5);
+        let mut partial = reference.meter();
+        partial.record(2, &at(0.2));
+        assert_eq!(partial.errors().contact, None, "frame 3 of the window is missing");
     }
 
     #[test]

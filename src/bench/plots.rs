@@ -8,7 +8,7 @@ use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 
 use super::BenchResult;
-use super::accuracy::AccuracyPoint;
+use super::accuracy::{AccuracyPoint, SceneSweep};
 use crate::io::atomic::{WriteError, write_file};
 
 /// Size of every chart, pixels.
@@ -109,11 +109,8 @@ fn power_label(v: &f64) -> String {
 /// Speed against error of accuracy sweeps, one curve per scene: ms per frame
 /// against the contact-window error, every run a dot labelled with its steps
 /// per frame, the Pareto front a line.
-pub fn speed_against_error(dir: &Path, sweeps: &[(String, Vec<AccuracyPoint>)]) -> Result<(), PlotError> {
-    fn draw<DB: DrawingBackend>(
-        root: &DrawingArea<DB, Shift>,
-        sweeps: &[(String, Vec<AccuracyPoint>)],
-    ) -> Result<(), String> {
+pub fn speed_against_error(dir: &Path, sweeps: &[SceneSweep]) -> Result<(), PlotError> {
+    fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, sweeps: &[SceneSweep]) -> Result<(), String> {
         let all = || sweeps.iter().flat_map(|(_, points)| points);
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let mut chart = chart_builder(root, "Speed against error (Pareto front: line)", 80)

@@ -16,24 +16,25 @@
 //! conjugate gradients pays for one iteration each). So the factor is
 //! *lagged*: a kept factor is tried first on a small iteration budget
 //! ([`STALE_BUDGET`]); when that is not enough the factor is rebuilt for the
-//! system at hand, which then solves in one or two, and stale factors are
+//! system at hand, which then solves in a few, and stale factors are
 //! not tried again for [`RETRY_STALE_AFTER`] solves.
 //!
 //! The factor is single precision: a preconditioner need not be exact (the
 //! conjugate gradients run in f64 and stop at the same tolerance), and f32
 //! halves the memory traffic of factor and solves. A system too stiff for it
 //! (the f32 factor fails, or a fresh one needs more than
-//! [`SINGLE_PRECISION_ITERATIONS`]) switches the simulation to f64 factors.
+//! [`single_precision_allowance`]) switches the simulation to f64 factors.
 //!
 //! The factor keeps the diagonal and the blocks of the cloth's springs only.
-//! Bending hinges also couple the vertices across each hinge's two opposite
-//! corners, which no spring joins; those blocks widen the stencil from 9 to
-//! ~21 points on a grid and several times the factor's fill, for a coupling
+//! Bending hinges also couple each hinge's two opposite corners. On a
+//! triangle mesh the shear spring across the hinge's edge joins them anyway;
+//! on a quad mesh (a grid) nothing does, and those blocks widen the stencil
+//! from 9 to ~21 points and several times the factor's fill, for a coupling
 //! that is weak next to the springs'. A dropped block `D` (rows `i`, `j`) is
-//! replaced by `‖D‖₂ I` on both diagonal blocks, which adds the positive
-//! semi-definite `[[‖D‖I, −D], [−Dᵀ, ‖D‖I]]`: the factored matrix stays
-//! positive definite and at least `A`, so conjugate gradients converge in a
-//! few iterations more, each cheaper.
+//! replaced by a bound of `‖D‖₂` times `I` on both diagonal blocks, which adds
+//! the positive semi-definite `[[‖D‖I, −D], [−Dᵀ, ‖D‖I]]`: the factored
+//! matrix stays positive definite and at least `S A S + c (I − S)`, so
+//! conjugate gradients converge in a few iterations more, each cheaper.
 //!
 //! The symbolic analysis (approximate minimum degree ordering, supernodes) is
 //! done once per cloth from the kept pattern. Factor and solve run on one
@@ -59,9 +60,13 @@ pub const STALE_BUDGET: u32 = 3;
 /// Solves to wait after a stale factor failed before trying one again.
 pub const RETRY_STALE_AFTER: u64 = 8;
 
-/// Iterations a fresh single-precision factor may need before the
-/// simulation switches to double-precision factors.
-pub const SINGLE_PRECISION_ITERATIONS: u32 = 4;
+/// Iterations per digit of the solver tolerance a fresh single-precision
+/// factor may need before the simulation switches to double-precision
+/// factors. The factor leaves blocks out, so even an exact one needs a few
+/// iterations, about in proportion to the digits asked for (measured: ~3
+/// per step at 1e-3, ~7 at 1e-8); an f32 factor too coarse for the system
+/// stalls instead, far past this.
+pub const SINGLE_PRECISION_ITERATIONS_PER_DIGIT: f64 = 2.0;
 
 /// Why a factor could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -165,6 +170,14 @@ fn kept_slots(pattern: &BlockPattern, couplings: &[[u32; 2]]) -> Vec<bool> {
         }
     }
     kept
+}
+
+/// Iterations a fresh single-precision factor may take to reach `tolerance`
+/// (relative): [`SINGLE_PRECISION_ITERATIONS_PER_DIGIT`] per digit, at least
+/// one digit's worth.
+pub fn single_precision_allowance(tolerance: f64) -> u32 {
+    let digits = if tolerance > 0.0 { (-tolerance.log10()).max(1.0) } else { f64::from(f32::DIGITS) };
+    (SINGLE_PRECISION_ITERATIONS_PER_DIGIT * digits).ceil() as u32
 }
 
 /// A block the factor drops, above the diagonal: its slot, row and column.
@@ -307,7 +320,7 @@ enum Factor {
 pub struct LaggedCholesky {
     lower: LowerTriangle,
     /// Blocks of the system the factor leaves out, compensated on the diagonal.
-    dropped: Arc<Vec<DroppedBlock>>,
+    dropped: Arc<[DroppedBlock]>,
     /// The filtered blocks of the last factor, one per stored slot.
     filtered: Vec<Matrix3<f64>>,
     symbolic: Arc<SymbolicCholesky<u32>>,
@@ -331,7 +344,7 @@ impl LaggedCholesky {
         let numeric = Factor::Single(Numeric::new(&symbolic, &lower));
         Ok(LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
-            dropped: Arc::new(dropped_blocks(pattern, &kept)),
+            dropped: dropped_blocks(pattern, &kept).into(),
             lower,
             symbolic: Arc::new(symbolic),
             numeric,
@@ -383,11 +396,12 @@ impl LaggedCholesky {
         Ok(())
     }
 
-    /// Notes the iterations a solve with a fresh factor took: a single-precision
-    /// factor that needed more than [`SINGLE_PRECISION_ITERATIONS`] is too coarse
-    /// for this system, and later factors are double precision.
-    pub fn fresh_factor_needed(&mut self, iterations: u32) {
-        if iterations > SINGLE_PRECISION_ITERATIONS && self.is_single_precision() {
+    /// Notes the iterations a solve to `tolerance` with a fresh factor took:
+    /// a single-precision factor that needed more than
+    /// [`single_precision_allowance`] is too coarse for this system, and later
+    /// factors are double precision.
+    pub fn fresh_factor_needed(&mut self, iterations: u32, tolerance: f64) {
+        if iterations > single_precision_allowance(tolerance) && self.is_single_precision() {
             self.use_double_precision();
             self.current = false;
         }
@@ -553,6 +567,29 @@ mod tests {
         let scale = system.norm();
         assert!(excess.min() > -1e-9 * scale, "P − A has eigenvalue {:e}", excess.min());
         assert!(excess.max() > 1e-3 * scale, "the ±2 couplings were dropped");
+    }
+
+    #[test]
+    fn the_norm_bound_is_exact_for_multiples_of_the_identity_and_never_below_the_norm() {
+        assert_eq!(spectral_norm_bound(&(Matrix3::identity() * -2.5)), 2.5);
+        let mut state = 3u64;
+        let mut rand = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 33) as f64 / (1u64 << 31) as f64 - 0.5
+        };
+        for _ in 0..200 {
+            let d = Matrix3::from_fn(|_, _| rand());
+            let largest = d.singular_values().max();
+            assert!(spectral_norm_bound(&d) >= largest * (1.0 - 1e-12), "{d}");
+        }
+    }
+
+    #[test]
+    fn the_single_precision_allowance_grows_with_the_digits_asked_for() {
+        assert_eq!(single_precision_allowance(1e-3), 6);
+        assert_eq!(single_precision_allowance(1e-10), 20);
+        assert_eq!(single_precision_allowance(0.5), 2, "at least one digit's worth");
+        assert_eq!(single_precision_allowance(0.0), 12, "f32's 6 digits when asked for exactness");
     }
 
     /// After a stale factor fails, stale factors are skipped for

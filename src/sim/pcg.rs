@@ -140,7 +140,7 @@ impl Preconditioner {
                     if factored { Preconditioning::Cholesky(cholesky) } else { Preconditioning::BlockJacobi };
                 let report = solve(system, x, settings, preconditioning, ws);
                 if factored {
-                    cholesky.fresh_factor_needed(report.iterations);
+                    cholesky.fresh_factor_needed(report.iterations, settings.tolerance);
                 }
                 (PcgReport { iterations: spent + report.iterations, ..report }, u32::from(factored))
             }
