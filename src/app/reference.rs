@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 
 use super::job::Job;
 use crate::bake;
-use crate::bench::accuracy::{REFERENCE_REFINEMENT, REFERENCE_TOLERANCE, relative_rms, rest_diagonal};
+use crate::bench::accuracy::{reference_scene, relative_rms, rest_diagonal};
 use crate::scene::Scene;
 
 /// A finished reference run.
@@ -38,10 +38,9 @@ pub fn start(scene: Scene) -> Job<Reference> {
     Job::start(scene.frame_count, move |stop, progress| run(scene, stop, progress))
 }
 
-fn run(mut scene: Scene, stop: &AtomicBool, progress: &dyn Fn(usize)) -> Result<Reference, String> {
+fn run(scene: Scene, stop: &AtomicBool, progress: &dyn Fn(usize)) -> Result<Reference, String> {
     let diagonal_m = rest_diagonal(&scene).map_err(|e| e.to_string())?;
-    scene.steps_per_frame = scene.steps_per_frame.saturating_mul(REFERENCE_REFINEMENT);
-    scene.solver.tolerance = REFERENCE_TOLERANCE;
+    let scene = reference_scene(&scene);
     let total = scene.frame_count;
     let mut frames = Vec::with_capacity(total + 1);
     let (records, failure) = bake::run(&scene, total, stop, |sim, record| {

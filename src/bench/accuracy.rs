@@ -95,6 +95,12 @@ pub fn variant(scene: &Scene, steps_per_frame: u32, tolerance: f64) -> Scene {
     variant
 }
 
+/// `scene` as its reference runs it: [`REFERENCE_REFINEMENT`]× the steps per
+/// frame, tolerance [`REFERENCE_TOLERANCE`].
+pub fn reference_scene(scene: &Scene) -> Scene {
+    variant(scene, scene.steps_per_frame.saturating_mul(REFERENCE_REFINEMENT), REFERENCE_TOLERANCE)
+}
+
 impl Reference {
     /// Runs the reference of `scene` over at most `frames` frames: until the
     /// end of the contact window (the first [`CONTACT_WINDOW_S`] after the
@@ -103,7 +109,7 @@ impl Reference {
     /// [`ErrorMeasure::WithEndState`].
     pub fn run(scene: &Scene, frames: usize, measure: ErrorMeasure) -> Result<Reference, BakeError> {
         let diagonal_m = rest_diagonal(scene)?;
-        let refined = variant(scene, scene.steps_per_frame * REFERENCE_REFINEMENT, REFERENCE_TOLERANCE);
+        let refined = reference_scene(scene);
         let frame_s = scene.frame_duration();
         let stop = AtomicBool::new(false);
         // Frames before the first contact, kept in case there is none.

@@ -398,9 +398,10 @@ pub fn csv(results: &[BenchResult]) -> String {
         for stage in stage_names() {
             let _ = write!(out, ",{:.4}", s.stage_ms_per_frame_median.get(stage).copied().unwrap_or(0.0));
         }
+        let error = |value: Option<f64>| value.map_or(String::new(), |v| format!("{v:.6e}"));
         let _ = writeln!(
             out,
-            ",{:.2},{:.6},{},{},{},{},{},{},{:.2},{},{}",
+            ",{:.2},{:.6},{},{},{},{},{},{},{:.2},{},{},{},{},{}",
             s.cg_iterations_per_step_mean,
             s.max_strain,
             s.contacts_max,
@@ -411,16 +412,10 @@ pub fn csv(results: &[BenchResult]) -> String {
             s.penetrations_total,
             s.projection_iterations_per_step_mean,
             s.projection_fallbacks,
-            s.rollbacks
-        );
-        out.pop(); // the newline, to append the memory and error columns
-        let optional = |value: Option<f64>, digits: usize| value.map_or(String::new(), |v| format!("{v:.digits$e}"));
-        let _ = writeln!(
-            out,
-            ",{},{},{}",
+            s.rollbacks,
             r.peak_memory_mib.map_or(String::new(), |m| format!("{m:.1}")),
-            optional(r.errors.and_then(|e| e.contact), 6),
-            optional(r.errors.and_then(|e| e.end), 6)
+            error(r.errors.and_then(|e| e.contact)),
+            error(r.errors.and_then(|e| e.end))
         );
     }
     out
