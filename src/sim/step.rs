@@ -15,7 +15,10 @@
 //! 4. **constraints**: `x̂ = x + h v`, projected onto the inextensibility
 //!    constraints (eq. 6, [`super::inextensibility`]), velocities with it;
 //! 5. **collisions**: each particle's path against the analytic colliders,
-//!    then the triangle-collision pipeline when the scene needs one;
+//!    then the triangle-collision pipeline when the scene needs one. What its
+//!    response moves goes through the analytic colliders again before its
+//!    next detection, so the step ends on a detection that found no crossing
+//!    (or is rolled back by [`super::adaptive`]);
 //! 6. **finish**: pins placed exactly, finiteness check, commit, strain.
 //!
 //! A step that produces a non-finite value is not committed: the state stays
@@ -34,6 +37,7 @@ use super::colliders::Collider;
 use super::collision::obstacles::{MeshCollider, Obstacles};
 use super::collision::{
     ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, Kinematic, ParticleCollision,
+    PassState, ResponseStage,
 };
 use super::contact::{ParticleSurface, StepWindow, SurfaceContact, resolve_particle};
 use super::fabric::{Fabric, FabricError};
@@ -268,6 +272,58 @@ pub fn triangle_frame(a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>) -> M
     let along = (b - a).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
     let normal = (b - a).cross(&(c - a)).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
     Matrix3::from_columns(&[along, normal.cross(&along), normal])
+}
+
+/// The cloth particles' straight paths over one step, for resolving them
+/// against the analytic colliders.
+struct ColliderPaths<'a> {
+    /// Positions at the start of the step, m.
+    start: &'a [Vector3<f64>],
+    /// Pinned particles, which no collider moves.
+    fixed: &'a [bool],
+    surfaces: &'a [ParticleSurface],
+    colliders: &'a [Collider],
+    window: StepWindow,
+}
+
+impl ColliderPaths<'_> {
+    /// Resolves every free particle `selected` from its start to its proposed
+    /// `end` (m, corrected in place with its `velocity`, m/s) against the
+    /// analytic colliders, writing its contact count and the collider it ends
+    /// resting on. Returns the contacts of the selected particles and whether
+    /// any end moved.
+    fn resolve(
+        &self,
+        end: &mut [Vector3<f64>],
+        velocity: &mut [Vector3<f64>],
+        selected: impl Fn(usize) -> bool + Sync,
+        contacts: &mut [u32],
+        resting_on: &mut [u32],
+    ) -> (u32, bool) {
+        if self.colliders.is_empty() {
+            return (0, false);
+        }
+        end.par_iter_mut()
+            .zip(velocity.par_iter_mut())
+            .zip(contacts.par_iter_mut().zip(resting_on.par_iter_mut()))
+            .enumerate()
+            .with_min_len(CHUNK)
+            .map(|(i, ((end, velocity), (contacts, resting)))| {
+                if !selected(i) {
+                    return (0, false);
+                }
+                if self.fixed[i] {
+                    (*contacts, *resting) = (0, NO_COLLIDER);
+                    return (0, false);
+                }
+                let proposed = *end;
+                let surface = self.surfaces[i];
+                let (count, on) = resolve_particle(&self.start[i], end, velocity, surface, self.colliders, self.window);
+                (*contacts, *resting) = (count, on.unwrap_or(NO_COLLIDER));
+                (count, *end != proposed)
+            })
+            .reduce(|| (0, false), |a, b| (a.0 + b.0, a.1 || b.1))
+    }
 }
 
 /// The triangle-collision pipeline of `cloth`, if the scene needs one.
@@ -662,15 +718,33 @@ impl Simulator {
             };
             let (limits, constraints, mass) = (&mut self.strain_limits, &self.ws.constraints, &self.particles.mass);
             let projection = &mut report.projection;
-            let mut after_pass = |x: &mut [Vector3<f64>], v: &mut [Vector3<f64>]| {
-                let Some(limits) = limits.as_mut() else { return false };
-                let gave_up = projection.abandoned || projection.stalled || projection.fell_back;
-                if gave_up || limits.excess_strain(x) <= STRAIN_TOLERANCE {
-                    return false;
+            let paths = ColliderPaths {
+                start: &self.x,
+                fixed: &self.fixed,
+                surfaces: &self.surfaces,
+                colliders: &self.colliders,
+                window,
+            };
+            let (contacts, resting_on) = (&mut self.ws.contacts, &mut self.resting_on);
+            let mut after_pass = |pass: PassState| {
+                let mut projected = false;
+                if let Some(limits) = limits.as_mut()
+                    && pass.stage == ResponseStage::Impulses
+                {
+                    let gave_up = projection.abandoned || projection.stalled || projection.fell_back;
+                    if !gave_up && limits.excess_strain(pass.end) > STRAIN_TOLERANCE {
+                        let state = ProjectedState { x: pass.end, v: pass.velocity, constraints, mass, h };
+                        let report = limits.project_if_met(state);
+                        projection.add(&report);
+                        projected = !report.abandoned;
+                    }
                 }
-                let report = limits.project_if_met(ProjectedState { x, v, constraints, mass, h });
-                projection.add(&report);
-                !report.abandoned
+                // What the response or the projection moved goes through the
+                // analytic colliders again, before the next detection sees it.
+                let moved = pass.moved;
+                let again = |i: usize| projected || moved[i];
+                let (_, collided) = paths.resolve(pass.end, pass.velocity, again, contacts, resting_on);
+                projected || collided
             };
             report.collision = pipeline.resolve(cloth, window, &mut after_pass);
             let c = &report.collision;
@@ -678,7 +752,6 @@ impl Simulator {
             report.timings.broad = c.broad;
             report.timings.narrow = c.narrow;
             report.timings.response = c.response;
-            self.collide_with_colliders(window);
             lap();
         }
 
@@ -822,25 +895,18 @@ impl Simulator {
     /// against the analytic colliders, noting which collider it ends resting
     /// on. Returns the contact count.
     fn collide_with_colliders(&mut self, window: StepWindow) -> u32 {
-        let n = self.x.len();
+        self.ws.contacts.resize(self.x.len(), 0);
+        let paths = ColliderPaths {
+            start: &self.x,
+            fixed: &self.fixed,
+            surfaces: &self.surfaces,
+            colliders: &self.colliders,
+            window,
+        };
         let ws = &mut self.ws;
-        ws.contacts.resize(n, 0);
-        let (x, fixed, colliders, surfaces) = (&self.x, &self.fixed, &self.colliders, &self.surfaces);
-        ws.next_x
-            .par_iter_mut()
-            .zip(ws.next_v.par_iter_mut())
-            .zip(ws.contacts.par_iter_mut().zip(self.resting_on.par_iter_mut()))
-            .enumerate()
-            .with_min_len(CHUNK)
-            .for_each(|(i, ((next_x, next_v), (contacts, resting)))| {
-                (*contacts, *resting) = if fixed[i] {
-                    (0, NO_COLLIDER)
-                } else {
-                    let (count, on) = resolve_particle(&x[i], next_x, next_v, surfaces[i], colliders, window);
-                    (count, on.unwrap_or(NO_COLLIDER))
-                };
-            });
-        ws.contacts.par_iter().map(|&c| c as u64).sum::<u64>() as u32
+        let (contacts, _) =
+            paths.resolve(&mut ws.next_x, &mut ws.next_v, |_| true, &mut ws.contacts, &mut self.resting_on);
+        contacts
     }
 
     /// Largest stretch (l − l₀) / l₀ and mean |l − l₀| / l₀ over the stretch springs.

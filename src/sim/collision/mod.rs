@@ -81,11 +81,36 @@ impl Default for CollisionSettings {
     }
 }
 
-/// A correction of the cloth's end positions and velocities (m, m/s) run after
-/// every response pass, before the next detection checks its result: the
-/// inextensibility projection, so that impulses and strain limits are met
-/// together. Returns whether it moved anything.
-pub type PassHook<'a> = &'a mut dyn FnMut(&mut [Vector3<f64>], &mut [Vector3<f64>]) -> bool;
+/// Which part of the response a pass hook follows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResponseStage {
+    /// A pass of impulses and the constraint set.
+    Impulses,
+    /// A round of rigid impact zones.
+    ImpactZones,
+}
+
+/// What a pass hook sees and may correct: the cloth's end positions and
+/// velocities (m, m/s), which particles the response just moved, and after
+/// which part of it.
+pub struct PassState<'a> {
+    /// Proposed positions at the end of the step, m.
+    pub end: &'a mut [Vector3<f64>],
+    /// Velocities, m/s.
+    pub velocity: &'a mut [Vector3<f64>],
+    /// Per particle, whether the response moved it since the last detection.
+    pub moved: &'a [bool],
+    /// The part of the response just run.
+    pub stage: ResponseStage,
+}
+
+/// A correction run after every response pass and every impact-zone round,
+/// before the next detection checks its result: the inextensibility
+/// projection (so that impulses and strain limits are met together) and the
+/// particles' paths against the analytic colliders (so that nothing the
+/// response pushed into a collider is moved out unchecked). Returns whether
+/// it moved anything.
+pub type PassHook<'a> = &'a mut dyn FnMut(PassState) -> bool;
 
 /// The contact influences a pipeline keeps between steps (see
 /// [`CollisionPipeline::save_memory`]).
@@ -308,7 +333,7 @@ impl CollisionPipeline {
             let clock = Instant::now();
             report.passes += 1;
             let (constraint_set, acted) = self.respond_pass(window.h());
-            let corrected = self.run_hook(after_pass, n);
+            let corrected = self.run_hook(after_pass, ResponseStage::Impulses);
             report.constraint_set = constraint_set;
             report.response += clock.elapsed();
             // Every contact within reach was already satisfied, so nothing
@@ -320,20 +345,22 @@ impl CollisionPipeline {
             }
         }
         if !settled {
-            (report.zone_rounds, report.unresolved) = self.impact_zones(window, &mut report);
+            (report.zone_rounds, report.unresolved) = self.impact_zones(window, after_pass, &mut report);
         }
         cloth.end.copy_from_slice(&self.ws.end[..n]);
         cloth.velocity.copy_from_slice(&self.ws.velocity[..n]);
         report
     }
 
-    /// Runs the pass hook on the cloth's end positions and velocities and
-    /// marks the points it moved. Returns whether it moved any.
-    fn run_hook(&mut self, hook: PassHook, n: usize) -> bool {
+    /// Runs the pass hook after `stage` on the cloth's end positions and
+    /// velocities and marks the points it moved. Returns whether it moved any.
+    fn run_hook(&mut self, hook: PassHook, stage: ResponseStage) -> bool {
+        let n = self.particles.len();
         let ws = &mut self.ws;
         ws.before_hook.clear();
         ws.before_hook.extend_from_slice(&ws.end[..n]);
-        let corrected = hook(&mut ws.end[..n], &mut ws.velocity[..n]);
+        let state = PassState { end: &mut ws.end[..n], velocity: &mut ws.velocity[..n], moved: &ws.moved[..n], stage };
+        let corrected = hook(state);
         if corrected {
             for ((moved, before), after) in ws.moved.iter_mut().zip(&ws.before_hook).zip(&ws.end[..n]) {
                 *moved |= before != after;
@@ -508,11 +535,11 @@ mod tests {
             let mut report = CollisionReport::default();
             pipeline.detect(Detection::Proximity, Scope::All, &mut report);
             let (_, acted) = pipeline.respond_pass(0.01);
-            let mut lift = |x: &mut [Vector3<f64>], _: &mut [Vector3<f64>]| {
-                x.iter_mut().step_by(7).for_each(|p| p.y += 0.001);
+            let mut lift = |pass: PassState| {
+                pass.end.iter_mut().step_by(7).for_each(|p| p.y += 0.001);
                 true
             };
-            assert!(pipeline.run_hook(&mut lift, n) && acted);
+            assert!(pipeline.run_hook(&mut lift, ResponseStage::Impulses) && acted);
             let moved = pipeline.ws.moved.iter().filter(|&&m| m).count();
             assert!(moved > n / 7 && moved < n, "points moved, not all: {moved} of {n}");
             let mut full = pipeline.clone();

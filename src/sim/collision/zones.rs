@@ -9,15 +9,18 @@ use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaterni
 
 use super::detect::{Detection, Scope};
 use super::response::{Points, rigidify};
-use super::{CollisionPipeline, CollisionReport, Kinematic};
+use super::{CollisionPipeline, CollisionReport, Kinematic, PassHook, ResponseStage};
 
 impl CollisionPipeline {
     /// Rigid impact zones until nothing crosses (or the rounds run out), run
     /// right after the impulse passes (their last detection's contacts are in
-    /// the workspace). Returns the rounds used and the crossings left.
+    /// the workspace); `after_round` corrects each round's result before the
+    /// next detection checks it. Returns the rounds used and the crossings
+    /// left.
     pub(super) fn impact_zones(
         &mut self,
         window: crate::sim::contact::StepWindow,
+        after_round: PassHook,
         report: &mut CollisionReport,
     ) -> (u32, u32) {
         let total = self.ws.start.len();
@@ -99,8 +102,9 @@ impl CollisionPipeline {
                 rigidify(&mut points, zone, carried.then_some(&carry as &dyn Fn(&Vector3<f64>) -> Vector3<f64>));
                 start = end;
             }
-            report.response += clock.elapsed();
             self.ws.contacts = crossings;
+            self.run_hook(after_round, ResponseStage::ImpactZones);
+            report.response += clock.elapsed();
         }
     }
 
