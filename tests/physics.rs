@@ -345,7 +345,10 @@ fn preconditioners_change_the_iterations_not_the_answer_on_hanging_cloth() {
     let (cholesky, x_cholesky) = iterations("cholesky");
     assert!(multigrid * 4 < jacobi, "multigrid {multigrid} vs block-Jacobi {jacobi} iterations");
     let steps = 30;
-    assert!(cholesky <= 3 * steps, "a kept or fresh factor: {cholesky} iterations in {steps} steps");
+    // The factor leaves the hinges' corner-to-corner couplings out, so at
+    // this tight tolerance a fresh one needs a few iterations, not one.
+    assert!(cholesky <= 8 * steps, "a kept or fresh factor: {cholesky} iterations in {steps} steps");
+    assert!(cholesky * 10 < jacobi, "cholesky {cholesky} vs block-Jacobi {jacobi} iterations");
     for (name, x) in [("multigrid", &x_multigrid), ("cholesky", &x_cholesky)] {
         let apart = x_jacobi.iter().zip(x).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
         assert!(apart < 1e-3, "{name} solves the same problem: {apart} m apart after 0.5 s");

@@ -16,17 +16,28 @@
 //! conjugate gradients pays for one iteration each). So the factor is
 //! *lagged*: a kept factor is tried first on a small iteration budget
 //! ([`STALE_BUDGET`]); when that is not enough the factor is rebuilt for the
-//! system at hand, which then solves in one or two, and stale factors are
+//! system at hand, which then solves in a few, and stale factors are
 //! not tried again for [`RETRY_STALE_AFTER`] solves.
 //!
 //! The factor is single precision: a preconditioner need not be exact (the
 //! conjugate gradients run in f64 and stop at the same tolerance), and f32
 //! halves the memory traffic of factor and solves. A system too stiff for it
 //! (the f32 factor fails, or a fresh one needs more than
-//! [`SINGLE_PRECISION_ITERATIONS`]) switches the simulation to f64 factors.
+//! [`single_precision_allowance`]) switches the simulation to f64 factors.
+//!
+//! The factor keeps the diagonal and the blocks of the cloth's springs only.
+//! Bending hinges also couple each hinge's two opposite corners. On a
+//! triangle mesh the shear spring across the hinge's edge joins them anyway;
+//! on a quad mesh (a grid) nothing does, and those blocks widen the stencil
+//! from 9 to ~21 points and several times the factor's fill, for a coupling
+//! that is weak next to the springs'. A dropped block `D` (rows `i`, `j`) is
+//! replaced by a bound of `‖D‖₂` times `I` on both diagonal blocks, which adds
+//! the positive semi-definite `[[‖D‖I, −D], [−Dᵀ, ‖D‖I]]`: the factored
+//! matrix stays positive definite and at least `S A S + c (I − S)`, so
+//! conjugate gradients converge in a few iterations more, each cheaper.
 //!
 //! The symbolic analysis (approximate minimum degree ordering, supernodes) is
-//! done once per cloth from its block pattern. Factor and solve run on one
+//! done once per cloth from the kept pattern. Factor and solve run on one
 //! thread, which on two cores is also the fastest here, and keeps the result
 //! bit-identical at any thread count.
 
@@ -49,9 +60,13 @@ pub const STALE_BUDGET: u32 = 3;
 /// Solves to wait after a stale factor failed before trying one again.
 pub const RETRY_STALE_AFTER: u64 = 8;
 
-/// Iterations a fresh single-precision factor may need before the
-/// simulation switches to double-precision factors.
-pub const SINGLE_PRECISION_ITERATIONS: u32 = 4;
+/// Iterations per digit of the solver tolerance a fresh single-precision
+/// factor may need before the simulation switches to double-precision
+/// factors. The factor leaves blocks out, so even an exact one needs a few
+/// iterations, about in proportion to the digits asked for (measured: ~3
+/// per step at 1e-3, ~7 at 1e-8); an f32 factor too coarse for the system
+/// stalls instead, far past this.
+pub const SINGLE_PRECISION_ITERATIONS_PER_DIGIT: f64 = 2.0;
 
 /// Why a factor could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -84,8 +99,9 @@ struct LowerTriangle {
 }
 
 impl LowerTriangle {
-    /// The pattern of the lower triangle of the scalar matrix of `pattern`.
-    fn new(pattern: &BlockPattern) -> Self {
+    /// The pattern of the lower triangle of the scalar matrix of the `kept`
+    /// slots of `pattern`.
+    fn new(pattern: &BlockPattern, kept: &[bool]) -> Self {
         let n = pattern.rows();
         let mut column_start = Vec::with_capacity(3 * n + 1);
         let (mut row_index, mut entries) = (Vec::new(), Vec::new());
@@ -93,7 +109,7 @@ impl LowerTriangle {
         for j in 0..n {
             for c in 0..3 {
                 // Row j of a symmetric pattern lists block column j's blocks.
-                for s in pattern.row(j).filter(|&s| pattern.column(s) >= j) {
+                for s in pattern.row(j).filter(|&s| pattern.column(s) >= j && kept[s]) {
                     let i = pattern.column(s);
                     for r in (0..3).filter(|&r| i > j || r >= c) {
                         row_index.push((3 * i + r) as u32);
@@ -136,6 +152,66 @@ fn filter_blocks(
             if i == j {
                 filtered[s] += (Matrix3::identity() - filter_j) * (a[s].trace() / 3.0);
             }
+        }
+    }
+}
+
+/// Slots of `pattern` the factor keeps: the diagonal and the blocks of `couplings`.
+fn kept_slots(pattern: &BlockPattern, couplings: &[[u32; 2]]) -> Vec<bool> {
+    let mut kept = vec![false; pattern.stored_blocks()];
+    for i in 0..pattern.rows() {
+        kept[pattern.diagonal(i)] = true;
+    }
+    for &[a, b] in couplings {
+        for (row, column) in [(a, b), (b, a)] {
+            if let Some(slot) = pattern.slot(row as usize, column as usize) {
+                kept[slot] = true;
+            }
+        }
+    }
+    kept
+}
+
+/// Iterations a fresh single-precision factor may take to reach `tolerance`
+/// (relative): [`SINGLE_PRECISION_ITERATIONS_PER_DIGIT`] per digit, at least
+/// one digit's worth.
+pub fn single_precision_allowance(tolerance: f64) -> u32 {
+    let digits = if tolerance > 0.0 { (-tolerance.log10()).max(1.0) } else { f64::from(f32::DIGITS) };
+    (SINGLE_PRECISION_ITERATIONS_PER_DIGIT * digits).ceil() as u32
+}
+
+/// A block the factor drops, above the diagonal: its slot, row and column.
+#[derive(Clone, Copy, Debug)]
+struct DroppedBlock {
+    slot: u32,
+    row: u32,
+    column: u32,
+}
+
+/// The blocks of `pattern` above the diagonal that are not `kept`.
+fn dropped_blocks(pattern: &BlockPattern, kept: &[bool]) -> Vec<DroppedBlock> {
+    (0..pattern.rows())
+        .flat_map(|row| pattern.row(row).map(move |slot| (row, slot)))
+        .filter(|&(row, slot)| pattern.column(slot) > row && !kept[slot])
+        .map(|(row, slot)| DroppedBlock { slot: slot as u32, row: row as u32, column: pattern.column(slot) as u32 })
+        .collect()
+}
+
+/// An upper bound of the spectral norm of `d`: `√(‖d‖₁ ‖d‖∞)`, exact for a
+/// multiple of the identity.
+fn spectral_norm_bound(d: &Matrix3<f64>) -> f64 {
+    let magnitudes = d.abs();
+    let (columns, rows) = (magnitudes.row_sum().max(), magnitudes.column_sum().max());
+    (columns * rows).sqrt()
+}
+
+/// Adds, for each dropped block `D`, `‖D‖₂ I` to the two diagonal blocks it
+/// couples (its slot is left as it is: the factor does not read it).
+fn compensate_dropped(pattern: &BlockPattern, dropped: &[DroppedBlock], filtered: &mut [Matrix3<f64>]) {
+    for block in dropped {
+        let bound = spectral_norm_bound(&filtered[block.slot as usize]);
+        for particle in [block.row, block.column] {
+            filtered[pattern.diagonal(particle as usize)] += Matrix3::identity() * bound;
         }
     }
 }
@@ -243,6 +319,8 @@ enum Factor {
 /// A Cholesky factor of the filtered system, kept across steps.
 pub struct LaggedCholesky {
     lower: LowerTriangle,
+    /// Blocks of the system the factor leaves out, compensated on the diagonal.
+    dropped: Arc<[DroppedBlock]>,
     /// The filtered blocks of the last factor, one per stored slot.
     filtered: Vec<Matrix3<f64>>,
     symbolic: Arc<SymbolicCholesky<u32>>,
@@ -254,15 +332,19 @@ pub struct LaggedCholesky {
 }
 
 impl LaggedCholesky {
-    /// Analyses the block pattern once: ordering and supernodes.
-    pub fn new(pattern: &BlockPattern) -> Result<Self, CholeskyError> {
-        let lower = LowerTriangle::new(pattern);
+    /// Analyses the block pattern once (ordering and supernodes), keeping
+    /// the diagonal and the blocks of `couplings` (a cloth's springs); the
+    /// pattern's other blocks are dropped and compensated on the diagonal.
+    pub fn new(pattern: &BlockPattern, couplings: &[[u32; 2]]) -> Result<Self, CholeskyError> {
+        let kept = kept_slots(pattern, couplings);
+        let lower = LowerTriangle::new(pattern, &kept);
         let symbolic =
             factorize_symbolic_cholesky(lower.symbolic(), Side::Lower, SymmetricOrdering::Amd, Default::default())
                 .map_err(|e| CholeskyError::Analysis(format!("{e:?}")))?;
         let numeric = Factor::Single(Numeric::new(&symbolic, &lower));
         Ok(LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
+            dropped: dropped_blocks(pattern, &kept).into(),
             lower,
             symbolic: Arc::new(symbolic),
             numeric,
@@ -285,7 +367,8 @@ impl LaggedCholesky {
         self.stale_failed_at = Some(self.solves);
     }
 
-    /// Factors `S A S + c (I − S)` for block values `a` on `pattern`, in
+    /// Factors `S A S + c (I − S)` for block values `a` on `pattern` (its
+    /// dropped blocks compensated on the diagonal), in
     /// single precision unless the system has needed double. On failure the
     /// old factor is dropped and the caller must precondition otherwise until
     /// a later factor succeeds.
@@ -297,6 +380,7 @@ impl LaggedCholesky {
     ) -> Result<(), CholeskyError> {
         self.current = false;
         filter_blocks(pattern, a, constraints, &mut self.filtered);
+        compensate_dropped(pattern, &self.dropped, &mut self.filtered);
         let (symbolic, lower, filtered) = (&*self.symbolic, &self.lower, &self.filtered);
         if let Factor::Single(single) = &mut self.numeric {
             if single.factor(symbolic, lower, filtered).is_ok() {
@@ -312,11 +396,12 @@ impl LaggedCholesky {
         Ok(())
     }
 
-    /// Notes the iterations a solve with a fresh factor took: a single-precision
-    /// factor that needed more than [`SINGLE_PRECISION_ITERATIONS`] is too coarse
-    /// for this system, and later factors are double precision.
-    pub fn fresh_factor_needed(&mut self, iterations: u32) {
-        if iterations > SINGLE_PRECISION_ITERATIONS && self.is_single_precision() {
+    /// Notes the iterations a solve to `tolerance` with a fresh factor took:
+    /// a single-precision factor that needed more than
+    /// [`single_precision_allowance`] is too coarse for this system, and later
+    /// factors are double precision.
+    pub fn fresh_factor_needed(&mut self, iterations: u32, tolerance: f64) {
+        if iterations > single_precision_allowance(tolerance) && self.is_single_precision() {
             self.use_double_precision();
             self.current = false;
         }
@@ -345,6 +430,7 @@ impl Clone for LaggedCholesky {
         let (symbolic, lower) = (&*self.symbolic, &self.lower);
         LaggedCholesky {
             lower: lower.clone(),
+            dropped: Arc::clone(&self.dropped),
             filtered: self.filtered.clone(),
             symbolic: Arc::clone(&self.symbolic),
             numeric: match &self.numeric {
@@ -374,10 +460,15 @@ mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
+    /// The couplings of the ring of `n` particles to their neighbours at
+    /// ±1 and ±2.
+    fn ring_pairs(n: usize) -> Vec<[u32; 2]> {
+        (0..n as u32).flat_map(|i| [[i, (i + 1) % n as u32], [i, (i + 2) % n as u32]]).collect()
+    }
+
     /// A random SPD block system on a ring of `n` particles (couplings ±1, ±2).
     fn ring(n: usize, seed: u64) -> (BlockPattern, Vec<Matrix3<f64>>) {
-        let pairs = (0..n as u32).flat_map(|i| [[i, (i + 1) % n as u32], [i, (i + 2) % n as u32]]);
-        let pattern = BlockPattern::new(n, pairs);
+        let pattern = BlockPattern::new(n, ring_pairs(n));
         let mut a = vec![Matrix3::zeros(); pattern.stored_blocks()];
         let mut state = seed;
         let mut rand = || {
@@ -421,7 +512,7 @@ mod tests {
         let mut constraints = vec![Constraint::Free; 12];
         constraints[3] = Constraint::Fixed;
         constraints[8] = Constraint::Normal(Vector3::new(1.0, 2.0, 2.0) / 3.0);
-        let mut cholesky = LaggedCholesky::new(&pattern).unwrap();
+        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(12)).unwrap();
         assert!(!cholesky.begin_solve(), "no factor yet");
         cholesky.refactor(&pattern, &a, &constraints).unwrap();
 
@@ -448,12 +539,65 @@ mod tests {
         assert!(double < 1e-12, "double precision: relative error {double:e}");
     }
 
+    /// With the ±2 couplings dropped, the factored matrix `P` is the system
+    /// plus a positive semi-definite compensation: `P − A ⪰ 0`, and `P` is
+    /// not `A` (something was dropped).
+    #[test]
+    fn dropped_blocks_leave_a_factor_of_a_larger_matrix() {
+        let n = 12;
+        let (pattern, a) = ring(n, 11);
+        let neighbours: Vec<[u32; 2]> = (0..n as u32).map(|i| [i, (i + 1) % n as u32]).collect();
+        let mut cholesky = LaggedCholesky::new(&pattern, &neighbours).unwrap();
+        cholesky.use_double_precision();
+        let free = vec![Constraint::Free; n];
+        cholesky.refactor(&pattern, &a, &free).unwrap();
+
+        // P⁻¹ column by column, then P.
+        let mut inverse = DMatrix::zeros(3 * n, 3 * n);
+        for k in 0..3 * n {
+            let mut unit = vec![Vector3::zeros(); n];
+            unit[k / 3][k % 3] = 1.0;
+            let mut column = vec![Vector3::zeros(); n];
+            cholesky.apply(&unit, &mut column);
+            inverse.set_column(k, &flatten(&column));
+        }
+        let factored = inverse.try_inverse().unwrap();
+        let system = dense(&pattern, |s, _| a[s]);
+        let excess = (&factored - &system).symmetric_eigenvalues();
+        let scale = system.norm();
+        assert!(excess.min() > -1e-9 * scale, "P − A has eigenvalue {:e}", excess.min());
+        assert!(excess.max() > 1e-3 * scale, "the ±2 couplings were dropped");
+    }
+
+    #[test]
+    fn the_norm_bound_is_exact_for_multiples_of_the_identity_and_never_below_the_norm() {
+        assert_eq!(spectral_norm_bound(&(Matrix3::identity() * -2.5)), 2.5);
+        let mut state = 3u64;
+        let mut rand = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 33) as f64 / (1u64 << 31) as f64 - 0.5
+        };
+        for _ in 0..200 {
+            let d = Matrix3::from_fn(|_, _| rand());
+            let largest = d.singular_values().max();
+            assert!(spectral_norm_bound(&d) >= largest * (1.0 - 1e-12), "{d}");
+        }
+    }
+
+    #[test]
+    fn the_single_precision_allowance_grows_with_the_digits_asked_for() {
+        assert_eq!(single_precision_allowance(1e-3), 6);
+        assert_eq!(single_precision_allowance(1e-10), 20);
+        assert_eq!(single_precision_allowance(0.5), 2, "at least one digit's worth");
+        assert_eq!(single_precision_allowance(0.0), 12, "f32's 6 digits when asked for exactness");
+    }
+
     /// After a stale factor fails, stale factors are skipped for
     /// [`RETRY_STALE_AFTER`] solves, then tried again.
     #[test]
     fn failed_stale_factors_are_retried_later() {
         let (pattern, a) = ring(6, 5);
-        let mut cholesky = LaggedCholesky::new(&pattern).unwrap();
+        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(6)).unwrap();
         cholesky.begin_solve();
         cholesky.refactor(&pattern, &a, &[Constraint::Free; 6]).unwrap();
         assert!(cholesky.begin_solve(), "a kept factor is tried");
@@ -469,7 +613,7 @@ mod tests {
     fn indefinite_matrix_is_rejected() {
         let (pattern, mut a) = ring(6, 3);
         a[pattern.diagonal(2)] = -Matrix3::identity();
-        let mut cholesky = LaggedCholesky::new(&pattern).unwrap();
+        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(6)).unwrap();
         let free = vec![Constraint::Free; 6];
         assert_eq!(cholesky.refactor(&pattern, &a, &free), Err(CholeskyError::NotPositiveDefinite));
         assert!(!cholesky.begin_solve(), "no factor is left to try");

@@ -92,12 +92,13 @@ pub enum Preconditioner {
 
 impl Preconditioner {
     /// The preconditioner of `kind` for matrices on `pattern`, whose springs
-    /// join `edges`.
+    /// join `edges` (a Cholesky factor keeps only their blocks and the
+    /// diagonal; multigrid aggregates along them).
     pub fn new(kind: PreconditionerKind, pattern: &BlockPattern, edges: &[[u32; 2]]) -> Result<Self, CholeskyError> {
         Ok(match kind {
             PreconditionerKind::BlockJacobi => Preconditioner::BlockJacobi,
             PreconditionerKind::Multigrid => Preconditioner::Multigrid(Box::new(Multigrid::new(pattern, edges))),
-            PreconditionerKind::Cholesky => Preconditioner::Cholesky(Box::new(LaggedCholesky::new(pattern)?)),
+            PreconditionerKind::Cholesky => Preconditioner::Cholesky(Box::new(LaggedCholesky::new(pattern, edges)?)),
         })
     }
 
@@ -139,7 +140,7 @@ impl Preconditioner {
                     if factored { Preconditioning::Cholesky(cholesky) } else { Preconditioning::BlockJacobi };
                 let report = solve(system, x, settings, preconditioning, ws);
                 if factored {
-                    cholesky.fresh_factor_needed(report.iterations);
+                    cholesky.fresh_factor_needed(report.iterations, settings.tolerance);
                 }
                 (PcgReport { iterations: spent + report.iterations, ..report }, u32::from(factored))
             }
@@ -316,10 +317,14 @@ mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
+    /// The couplings of a ring of `n` particles to ±1 and ±2.
+    fn ring_pairs(n: usize) -> Vec<[u32; 2]> {
+        (0..n as u32).flat_map(|i| [[i, (i + 1) % n as u32], [i, (i + 2) % n as u32]]).collect()
+    }
+
     /// A random SPD block matrix on a ring of `n` particles (couplings to ±1, ±2).
     fn ring_system(n: usize) -> (BlockPattern, Vec<Matrix3<f64>>, Vec<Vector3<f64>>) {
-        let pairs = (0..n as u32).flat_map(|i| [[i, (i + 1) % n as u32], [i, (i + 2) % n as u32]]);
-        let pattern = BlockPattern::new(n, pairs);
+        let pattern = BlockPattern::new(n, ring_pairs(n));
         let mut a = vec![Matrix3::zeros(); pattern.stored_blocks()];
         let mut seed = 12345u64;
         let mut rand = || {
@@ -464,7 +469,7 @@ mod tests {
         let settings =
             PcgSettings { tolerance: 1e-8, max_iterations: 1000, preconditioner: PreconditionerKind::Cholesky };
         let free = vec![Constraint::Free; n];
-        let mut preconditioner = Preconditioner::new(settings.preconditioner, &pattern, &[]).unwrap();
+        let mut preconditioner = Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n)).unwrap();
         let mut run = |a: &[Matrix3<f64>]| {
             let mut x = vec![Vector3::zeros(); n];
             let system =
@@ -507,7 +512,7 @@ mod tests {
         let settings =
             PcgSettings { tolerance: 1e-10, max_iterations: 1000, preconditioner: PreconditionerKind::Cholesky };
         let free = vec![Constraint::Free; n];
-        let mut preconditioner = Preconditioner::new(settings.preconditioner, &pattern, &[]).unwrap();
+        let mut preconditioner = Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n)).unwrap();
         let mut x = vec![Vector3::zeros(); n];
         let system =
             FilteredSystem { pattern: &pattern, a: &a, b: &b, typical: &b, constraints: &free, positions: &[] };
