@@ -17,8 +17,9 @@
 //! 5. **collisions**: each particle's path against the analytic colliders,
 //!    then the triangle-collision pipeline when the scene needs one. What its
 //!    response moves goes through the analytic colliders again before its
-//!    next detection, so the step ends on a detection that found no crossing
-//!    (or is rolled back by [`super::adaptive`]);
+//!    next detection, so the step ends on a detection of its final
+//!    positions and reports the crossings it found (the safety net,
+//!    [`super::adaptive`], rolls such a step back);
 //! 6. **finish**: pins placed exactly, finiteness check, commit, strain.
 //!
 //! A step that produces a non-finite value is not committed: the state stays
@@ -168,7 +169,8 @@ pub struct StageTimings {
     pub solve: Duration,
     /// Inextensibility projection.
     pub constraints: Duration,
-    /// Particles against analytic colliders.
+    /// Particles against analytic colliders (before the triangle
+    /// collisions; their corrections within those count as `response`).
     pub contacts: Duration,
     /// Collision hierarchy refits.
     pub refit: Duration,
@@ -176,7 +178,8 @@ pub struct StageTimings {
     pub broad: Duration,
     /// Collision narrow phase.
     pub narrow: Duration,
-    /// Collision response (impulses, constraint set, impact zones).
+    /// Collision response (impulses, constraint set, impact zones, and the
+    /// strain projection and analytic colliders after each pass).
     pub response: Duration,
     /// Pins, checks, commit, strain.
     pub finish: Duration,
@@ -287,16 +290,16 @@ struct ColliderPaths<'a> {
 }
 
 impl ColliderPaths<'_> {
-    /// Resolves every free particle `selected` from its start to its proposed
-    /// `end` (m, corrected in place with its `velocity`, m/s) against the
-    /// analytic colliders, writing its contact count and the collider it ends
-    /// resting on. Returns the contacts of the selected particles and whether
-    /// any end moved.
+    /// Resolves every free particle `selected` (by index and proposed end)
+    /// from its start to its proposed `end` (m, corrected in place with its
+    /// `velocity`, m/s) against the analytic colliders, writing its contact
+    /// count and the collider it ends resting on. Returns the contacts of the
+    /// selected particles and whether any end moved.
     fn resolve(
         &self,
         end: &mut [Vector3<f64>],
         velocity: &mut [Vector3<f64>],
-        selected: impl Fn(usize) -> bool + Sync,
+        selected: impl Fn(usize, &Vector3<f64>) -> bool + Sync,
         contacts: &mut [u32],
         resting_on: &mut [u32],
     ) -> (u32, bool) {
@@ -309,7 +312,7 @@ impl ColliderPaths<'_> {
             .enumerate()
             .with_min_len(CHUNK)
             .map(|(i, ((end, velocity), (contacts, resting)))| {
-                if !selected(i) {
+                if !selected(i, end) {
                     return (0, false);
                 }
                 if self.fixed[i] {
@@ -395,6 +398,9 @@ struct Workspace {
     velocity_change: Vec<Vector3<f64>>,
     next_x: Vec<Vector3<f64>>,
     next_v: Vec<Vector3<f64>>,
+    /// End positions before a strain projection inside the collision
+    /// response, to see which particles it moved.
+    before_projection: Vec<Vector3<f64>>,
     contacts: Vec<u32>,
     partials: Vec<f64>,
 }
@@ -726,13 +732,16 @@ impl Simulator {
                 window,
             };
             let (contacts, resting_on) = (&mut self.ws.contacts, &mut self.resting_on);
+            let before_projection = &mut self.ws.before_projection;
             let mut after_pass = |pass: PassState| {
                 let mut projected = false;
+                before_projection.clear();
                 if let Some(limits) = limits.as_mut()
                     && pass.stage == ResponseStage::Impulses
                 {
                     let gave_up = projection.abandoned || projection.stalled || projection.fell_back;
                     if !gave_up && limits.excess_strain(pass.end) > STRAIN_TOLERANCE {
+                        before_projection.extend_from_slice(pass.end);
                         let state = ProjectedState { x: pass.end, v: pass.velocity, constraints, mass, h };
                         let report = limits.project_if_met(state);
                         projection.add(&report);
@@ -741,8 +750,8 @@ impl Simulator {
                 }
                 // What the response or the projection moved goes through the
                 // analytic colliders again, before the next detection sees it.
-                let moved = pass.moved;
-                let again = |i: usize| projected || moved[i];
+                let (moved, before_projection) = (pass.moved, &*before_projection);
+                let again = |i: usize, end: &Vector3<f64>| moved[i] || (projected && before_projection[i] != *end);
                 let (_, collided) = paths.resolve(pass.end, pass.velocity, again, contacts, resting_on);
                 projected || collided
             };
@@ -905,7 +914,7 @@ impl Simulator {
         };
         let ws = &mut self.ws;
         let (contacts, _) =
-            paths.resolve(&mut ws.next_x, &mut ws.next_v, |_| true, &mut ws.contacts, &mut self.resting_on);
+            paths.resolve(&mut ws.next_x, &mut ws.next_v, |_, _| true, &mut ws.contacts, &mut self.resting_on);
         contacts
     }
 

@@ -18,7 +18,10 @@
 //!    friction; contacts that keep coming back gain influence (eq. 16) and,
 //!    above the threshold, are solved together as a constraint set; what is
 //!    still crossing after the passes is made to move in rigid impact zones
-//!    until nothing crosses.
+//!    until nothing crosses. Every pass and every round is corrected by the
+//!    step's [`PassHook`] (strain limits, analytic colliders) before the next
+//!    detection checks it, so the pipeline ends on a detection of the final
+//!    positions and reports the crossings that detection found.
 //!
 //! A scene without self-collision and without mesh or sharp colliders builds
 //! none of this; a step whose boxes do not overlap runs no narrow phase.
@@ -126,7 +129,8 @@ pub struct CollisionReport {
     pub broad: Duration,
     /// Narrow phase (continuous collision detection).
     pub narrow: Duration,
-    /// Impulses, constraint set and impact zones.
+    /// Impulses, constraint set, impact zones, and the pass hook's
+    /// corrections.
     pub response: Duration,
     /// Candidate pairs of the last detection.
     pub pairs: u32,
@@ -147,23 +151,6 @@ pub struct CollisionReport {
     pub zone_rounds: u32,
     /// Crossings left when the step ends (should be 0).
     pub unresolved: u32,
-}
-
-impl CollisionReport {
-    /// Folds in a later resolve of the same step (after the positions were
-    /// corrected again): times, passes and zone rounds add up, the crossings
-    /// left are the later ones; the first detection's counts stay.
-    pub fn add(&mut self, later: &CollisionReport) {
-        self.refit += later.refit;
-        self.broad += later.broad;
-        self.narrow += later.narrow;
-        self.response += later.response;
-        self.passes += later.passes;
-        self.zone_rounds += later.zone_rounds;
-        self.pairs = later.pairs;
-        self.constraint_set = later.constraint_set;
-        self.unresolved = later.unresolved;
-    }
 }
 
 /// One garment-level fact the pipeline needs per cloth particle.
@@ -226,6 +213,11 @@ struct Workspace {
     moved_triangle: Vec<bool>,
     /// End positions before the pass hook, to see which it moved.
     before_hook: Vec<Vector3<f64>>,
+    /// Cloth points the pass hook moved after an impact-zone round (pushed
+    /// out of an analytic collider): kinematic, on the path the hook gave
+    /// them, for the rest of the step's rounds, so a zone cannot push them
+    /// back in round after round.
+    held: Vec<bool>,
     /// Keys of a detection's contacts.
     found: HashSet<[u32; 5]>,
     /// Indices into `contacts` of the eq. 16 constraint set of this pass.
@@ -362,8 +354,15 @@ impl CollisionPipeline {
         let state = PassState { end: &mut ws.end[..n], velocity: &mut ws.velocity[..n], moved: &ws.moved[..n], stage };
         let corrected = hook(state);
         if corrected {
-            for ((moved, before), after) in ws.moved.iter_mut().zip(&ws.before_hook).zip(&ws.end[..n]) {
-                *moved |= before != after;
+            let hold = stage == ResponseStage::ImpactZones;
+            for (i, (before, after)) in ws.before_hook.iter().zip(&ws.end[..n]).enumerate() {
+                if before != after {
+                    ws.moved[i] = true;
+                    if hold {
+                        ws.held[i] = true;
+                        ws.inverse_mass[i] = 0.0;
+                    }
+                }
             }
         }
         corrected
@@ -407,6 +406,8 @@ impl CollisionPipeline {
         ws.inverse_mass.resize(ws.start.len(), 0.0);
         ws.moved.clear();
         ws.moved.resize(ws.start.len(), false);
+        ws.held.clear();
+        ws.held.resize(cloth.start.len(), false);
     }
 
     /// One pass of impulses over every contact, then sweeps over the
@@ -551,6 +552,49 @@ mod tests {
             let only_full: Vec<_> = full.difference(&again).collect();
             assert!(only_again.is_empty() && only_full.is_empty(), "{detection:?}: {only_again:?} vs {only_full:?}");
         }
+    }
+
+    /// The pass hook runs after every impulse pass and every impact-zone
+    /// round with the points the response moved; a point it moves after a
+    /// round (as an analytic collider pushing it out would) keeps that
+    /// position, held, while the zones go on around it; and the crossings the
+    /// pipeline reports are those of its final positions.
+    #[test]
+    fn zone_rounds_are_corrected_by_the_hook_and_hold_what_it_moved() {
+        let (mut pipeline, n) = crumpled(true);
+        pipeline.settings.passes = 1;
+        let start = pipeline.ws.start[..n].to_vec();
+        let mut end = pipeline.ws.end[..n].to_vec();
+        let mut velocity = pipeline.ws.velocity[..n].to_vec();
+        let mass = vec![1e-3; n];
+        let window = StepWindow { t0: 0.0, t1: 0.01 };
+        let mut stages = Vec::new();
+        let mut pushed: HashMap<usize, (u32, Vector3<f64>)> = HashMap::new();
+        let mut hook = |pass: PassState| {
+            stages.push(pass.stage);
+            if pass.stage == ResponseStage::Impulses {
+                return false;
+            }
+            for (i, p) in pass.end.iter_mut().enumerate().filter(|(i, _)| pass.moved[*i]) {
+                p.y += 5e-4;
+                let entry = pushed.entry(i).or_insert((0, *p));
+                *entry = (entry.0 + 1, *p);
+            }
+            pass.moved.iter().any(|&m| m)
+        };
+        let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
+        let report = pipeline.resolve(cloth, window, &mut hook);
+        assert_eq!(stages[0], ResponseStage::Impulses);
+        assert!(stages.contains(&ResponseStage::ImpactZones) && !pushed.is_empty(), "{stages:?}");
+        for (i, (times, at)) in &pushed {
+            assert_eq!(*times, 1, "point {i} was pushed once, then held");
+            assert_eq!(end[*i], *at, "point {i} ends where the hook put it");
+        }
+        let (mut check, _) = crumpled(true);
+        let cloth = ClothState { start: &start, end: &mut end.clone(), velocity: &mut velocity, mass: &mass };
+        check.load(&cloth, window);
+        check.detect(Detection::Crossings, Scope::All, &mut CollisionReport::default());
+        assert_eq!(report.unresolved as usize, check.ws.contacts.len(), "the report is the final positions'");
     }
 
     /// PAPER Algorithm 1: owning each feature once finds exactly the contacts

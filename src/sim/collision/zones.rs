@@ -1,7 +1,10 @@
 //! The fail-safe: rigid impact zones (Provot 1997, Bridson et al. 2002).
 //! Points whose features still cross after the impulse passes are merged into
 //! zones that move rigidly, or with the kinematic point they hold, until
-//! nothing crosses.
+//! nothing crosses. After each round the pass hook corrects the result (a
+//! point a zone carried into an analytic collider is moved out); a point it
+//! moves is held on that path, kinematic, for the rest of the step, so the
+//! next rounds move its zone around it instead of back into the collider.
 
 use std::time::Instant;
 
@@ -129,10 +132,12 @@ impl CollisionPipeline {
         ws.zone_members.sort_unstable();
     }
 
-    /// The prescribed motion of point `i`, if it has one (pinned particle or
-    /// obstacle vertex).
+    /// The prescribed motion of point `i`, if it has one (pinned particle,
+    /// obstacle vertex, or a particle the pass hook moved after a round,
+    /// held on its start-to-end path).
     fn kinematic(&self, i: u32) -> Option<Kinematic> {
         match self.particles.get(i as usize) {
+            Some(_) if self.ws.held[i as usize] => Some(Kinematic::Deforming),
             Some(p) => p.pinned,
             None => {
                 let o = &self.obstacles;
