@@ -417,6 +417,10 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failur
         summary.contacts_max,
         summary.triangle_contacts_max,
     );
+    if summary.rollbacks > 0 {
+        let causes = summary.rollback_causes.phrases().join(", ");
+        println!("{} steps rolled back and retried halved ({causes})", summary.rollbacks);
+    }
     match (failure, cancelled) {
         (Some(e), _) => Err(Failure::Internal(format!("{e} (frames before it are in {})", out.display()))),
         (None, true) => {

@@ -132,6 +132,8 @@ fn failed_steps_are_rolled_back_retried_halved_and_the_bake_finishes() {
     assert_eq!(records.len(), 30);
     let rollbacks: u32 = records.iter().map(|r| r.rollbacks).sum();
     assert!(rollbacks > 0, "the capped solve never failed: the test does not test");
+    let unconverged: u32 = records.iter().map(|r| r.rollback_causes.unconverged).sum();
+    assert_eq!(unconverged, rollbacks, "every rollback is counted under its cause, the capped solve");
     assert!(records.iter().any(|r| r.rollbacks > 0 && r.steps == 2 && r.shortest_step_s == 1.0 / 60.0));
     assert!(records[..4].iter().all(|r| r.steps == 1 && r.rollbacks == 0), "calm frames keep the nominal step");
 }

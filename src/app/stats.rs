@@ -31,7 +31,8 @@ pub fn overlay_lines(record: &FrameRecord) -> Vec<String> {
         ));
         lines.push(format!("strain max {:.2} %  mean {:.2} %", record.max_strain * 100.0, record.mean_strain * 100.0));
         if record.rollbacks > 0 {
-            lines.push(format!("{} steps rolled back and halved", record.rollbacks));
+            let causes = record.rollback_causes.phrases().join(", ");
+            lines.push(format!("{} steps rolled back and halved ({causes})", record.rollbacks));
         }
     } else {
         lines.push(format!("frame {} (initial state)", record.frame));

@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
-use crate::sim::adaptive::{AdaptiveSettings, Stepper, Unrecoverable};
+use crate::sim::adaptive::{AdaptiveSettings, RollbackCauses, Stepper, Unrecoverable};
 use crate::sim::fabric::Fabric;
 use crate::sim::step::{StageTimings, TuningError};
 use crate::sim::{SimError, Simulator};
@@ -30,6 +30,8 @@ pub struct FrameRecord {
     pub factorizations: u32,
     /// Steps rolled back and retried at half the length (the safety net).
     pub rollbacks: u32,
+    /// Why they were rolled back.
+    pub rollback_causes: RollbackCauses,
     /// Shortest step taken in the frame, s.
     pub shortest_step_s: f64,
     /// Newton iterations of the inextensibility projection, summed over the steps.
@@ -159,6 +161,7 @@ impl Baker {
             .map_err(|source| BakeError::Step { frame, source })?;
         record.steps = advance.steps;
         record.rollbacks = advance.rollbacks;
+        record.rollback_causes = advance.causes;
         record.shortest_step_s = advance.shortest_step_s;
         record.time_s = self.sim.time();
         record.intersections = self.checker.check(self.sim.positions(), record.time_s);

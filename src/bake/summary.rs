@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::FrameRecord;
 use crate::metrics::intersections::Intersections;
 use crate::scene::Scene;
+use crate::sim::adaptive::RollbackCauses;
 use crate::sim::step::StageTimings;
 
 /// Everything `summary.json` holds.
@@ -49,6 +50,9 @@ pub struct BakeSummary {
     pub cg_iterations_per_step_mean: f64,
     /// Steps rolled back and retried at half the length (the safety net).
     pub rollbacks: u32,
+    /// Why they were rolled back.
+    #[serde(default)]
+    pub rollback_causes: RollbackCauses,
     /// Mean Newton iterations of the inextensibility projection per step.
     pub projection_iterations_per_step_mean: f64,
     /// Steps whose projection fell back to clamping.
@@ -168,6 +172,10 @@ impl BakeSummary {
             cg_iterations_per_step_mean: records.iter().map(|r| r.cg_iterations as f64).sum::<f64>()
                 / steps.max(1) as f64,
             rollbacks: records.iter().map(|r| r.rollbacks).sum(),
+            rollback_causes: records.iter().fold(RollbackCauses::default(), |mut all, r| {
+                all.add(&r.rollback_causes);
+                all
+            }),
             projection_iterations_per_step_mean: records.iter().map(|r| r.projection_iterations as f64).sum::<f64>()
                 / steps.max(1) as f64,
             projection_fallbacks: records.iter().map(|r| r.projection_fallbacks).sum(),

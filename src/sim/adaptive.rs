@@ -83,8 +83,54 @@ pub struct Advance {
     pub rollbacks: u32,
     /// Shortest step taken, s.
     pub shortest_step_s: f64,
-    /// Why the last rolled-back step failed.
-    pub last_failure: Option<StepFailure>,
+    /// Why the rolled-back steps failed.
+    pub causes: RollbackCauses,
+}
+
+/// How many rolled-back steps failed for each reason, so a slow bake can say
+/// why it slowed down.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct RollbackCauses {
+    /// A position or velocity became non-finite.
+    pub non_finite: u32,
+    /// The linear solve hit its iteration cap.
+    pub unconverged: u32,
+    /// A stretch edge passed the blow-up strain.
+    pub blow_up: u32,
+    /// The collision pipeline left crossings.
+    pub crossings: u32,
+}
+
+impl RollbackCauses {
+    /// Counts one failure.
+    pub fn count(&mut self, failure: &StepFailure) {
+        let counter = match failure {
+            StepFailure::NonFinite { .. } => &mut self.non_finite,
+            StepFailure::Unconverged { .. } => &mut self.unconverged,
+            StepFailure::BlowUp { .. } => &mut self.blow_up,
+            StepFailure::Crossings { .. } => &mut self.crossings,
+        };
+        *counter += 1;
+    }
+
+    /// Adds another tally to this one.
+    pub fn add(&mut self, other: &RollbackCauses) {
+        self.non_finite += other.non_finite;
+        self.unconverged += other.unconverged;
+        self.blow_up += other.blow_up;
+        self.crossings += other.crossings;
+    }
+
+    /// The causes that occurred, as "N cause" phrases (empty when none did).
+    pub fn phrases(&self) -> Vec<String> {
+        let kinds = [
+            (self.non_finite, "non-finite"),
+            (self.unconverged, "linear solve unconverged"),
+            (self.blow_up, "strain blow-up"),
+            (self.crossings, "crossings left"),
+        ];
+        kinds.iter().filter(|(n, _)| *n > 0).map(|(n, what)| format!("{n} {what}")).collect()
+    }
 }
 
 /// Advances a simulator by whole frames with rollback and retry.
@@ -135,7 +181,7 @@ impl Stepper {
                         return Err(Unrecoverable { time: sim.time() + h, step_s: h, cause: failure });
                     }
                     advance.rollbacks += 1;
-                    advance.last_failure = Some(failure);
+                    advance.causes.count(&failure);
                     halvings += 1;
                 }
             }
@@ -157,5 +203,23 @@ impl Stepper {
             return Err(StepFailure::Crossings { count: report.collision.unresolved });
         }
         Ok(report)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rollback_causes_are_tallied_by_kind_and_named() {
+        let mut causes = RollbackCauses::default();
+        assert!(causes.phrases().is_empty());
+        causes.count(&StepFailure::BlowUp { strain: 12.0, bound: 10.0 });
+        causes.count(&StepFailure::BlowUp { strain: 11.0, bound: 10.0 });
+        causes.count(&StepFailure::Crossings { count: 3 });
+        let mut total = RollbackCauses { unconverged: 1, ..Default::default() };
+        total.add(&causes);
+        assert_eq!(total, RollbackCauses { non_finite: 0, unconverged: 1, blow_up: 2, crossings: 1 });
+        assert_eq!(total.phrases(), ["1 linear solve unconverged", "2 strain blow-up", "1 crossings left"]);
     }
 }
