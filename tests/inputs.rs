@@ -63,13 +63,25 @@ fn load_with(files: &[(&str, &str)]) -> String {
     }
 }
 
+/// A `[[collider]]` table: a sphere spinning about Y with the given extra
+/// motion fields.
+fn spinning_ball(timing: &str) -> String {
+    format!(
+        "[[collider]]\nname = \"ball\"\nshape = {{ sphere = {{ radius_m = 0.3 }} }}\n\
+         motion = {{ angular_velocity_deg_per_s = [0.0, 90.0, 0.0], {timing} }}\n"
+    )
+}
+
+/// Files to write (name, contents) and the phrases the error must contain.
+type BadInputCase<'a> = (Vec<(&'a str, String)>, Vec<&'a str>);
+
 const GOOD_HEAD: &str = "[time]\nduration_s = 1.0\n[[garment]]\nname = \"cloth\"\n";
 
 #[test]
 fn bad_inputs_get_clear_errors_naming_the_file_and_the_problem() {
     let grid = "mesh = { grid = { size_m = 1.0, resolution = 8 } }\n";
     let triangle = "v 0 0 0\nv 1 0 0\nv 0 0 1\n";
-    let cases: Vec<(Vec<(&str, String)>, Vec<&str>)> = vec![
+    let cases: Vec<BadInputCase> = vec![
         (vec![], vec!["cannot read scene file", "scene.toml"]),
         (vec![("scene.toml", "[time\nduration_s = 1".into())], vec!["scene.toml", "line 1"]),
         (
@@ -91,6 +103,20 @@ fn bad_inputs_get_clear_errors_naming_the_file_and_the_problem() {
             vec!["bend_stiffness_n_m = NaN", "N·m"],
         ),
         (vec![("scene.toml", format!("{GOOD_HEAD}preset = \"velvet\"\n{grid}"))], vec!["unknown preset 'velvet'"]),
+        (
+            vec![(
+                "scene.toml",
+                format!("{GOOD_HEAD}preset = \"cotton\"\n{grid}{}", spinning_ball("start_s = 1.0, end_s = nan")),
+            )],
+            vec!["collider 'ball': motion", "end_s must be a number not before start_s"],
+        ),
+        (
+            vec![(
+                "scene.toml",
+                format!("{GOOD_HEAD}preset = \"cotton\"\n{grid}{}", spinning_ball("start_s = 2.0, end_s = 1.0")),
+            )],
+            vec!["collider 'ball': motion", "end_s must be a number not before start_s"],
+        ),
         (
             vec![("scene.toml", format!("{GOOD_HEAD}preset = \"cotton\"\n{grid}[camera]\npitch_deg = 95.0\n"))],
             vec!["scene.toml", "camera.pitch_deg", "95", "degrees"],

@@ -247,6 +247,10 @@ fn vertex_usage(text: &str) -> (usize, usize) {
     (declared, used.len().min(declared))
 }
 
+/// Whether a line's whitespace-separated tokens are the kind a tobj error
+/// complains about.
+type LineTest<'a> = Box<dyn Fn(&[&str]) -> bool + 'a>;
+
 /// Finds the line a tobj error most likely comes from.
 fn locate_error(text: &str, error: &tobj::LoadError) -> Option<usize> {
     use tobj::LoadError as E;
@@ -267,7 +271,7 @@ fn locate_error(text: &str, error: &tobj::LoadError) -> Option<usize> {
                     })
                 }))
     };
-    let predicate: Box<dyn Fn(&[&str]) -> bool> = match error {
+    let predicate: LineTest<'_> = match error {
         E::PositionParseError | E::ColorParseError => Box::new(bad_numbers("v", &[3, 4, 6, 7])),
         E::TexcoordParseError => Box::new(bad_numbers("vt", &[1, 2, 3])),
         E::NormalParseError => Box::new(bad_numbers("vn", &[3])),

@@ -202,10 +202,8 @@ fn remove_unused_vertices(mesh: &mut TriMesh) -> usize {
         used[v as usize] = true;
     }
     let mut new_index = vec![u32::MAX; used.len()];
-    let mut next = 0u32;
-    for (old, _) in used.iter().enumerate().filter(|(_, u)| **u) {
-        new_index[old] = next;
-        next += 1;
+    for (next, (old, _)) in used.iter().enumerate().filter(|(_, u)| **u).enumerate() {
+        new_index[old] = next as u32;
     }
     let renumber = |v: u32| new_index[v as usize];
     for tri in &mut mesh.triangles {

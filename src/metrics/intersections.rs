@@ -185,9 +185,12 @@ fn solid(shape: &Shape) -> Solid {
 /// radius.
 const AROUND: usize = 96;
 
+/// Vertices (m, in the shape's frame) and triangles of a closed surface.
+type Surface = (Vec<Vector3<f64>>, Vec<[u32; 3]>);
+
 /// A closed triangle surface of an analytic shape, in its frame; `None` for
 /// the ground (tested exactly instead).
-fn tessellate(shape: &Shape) -> Option<(Vec<Vector3<f64>>, Vec<[u32; 3]>)> {
+fn tessellate(shape: &Shape) -> Option<Surface> {
     let ring = |r: f64, y: f64| -> Vec<Vector3<f64>> {
         (0..AROUND)
             .map(|k| {

@@ -267,12 +267,10 @@ impl Resolver<'_> {
         if solver.max_iterations == 0 {
             return Err(self.invalid("solver.max_iterations", "must be at least 1"));
         }
-        if let Some(steps) = solver.steps_per_frame {
-            if !(1..=10_000).contains(&steps) {
-                return Err(
-                    self.invalid("solver.steps_per_frame", format!("{steps} is out of range: 1 ≤ steps ≤ 10000"))
-                );
-            }
+        if let Some(steps) = solver.steps_per_frame
+            && !(1..=10_000).contains(&steps)
+        {
+            return Err(self.invalid("solver.steps_per_frame", format!("{steps} is out of range: 1 ≤ steps ≤ 10000")));
         }
         if file.garments.is_empty() {
             return Err(self.invalid("garment", "the scene has no [[garment]]"));
@@ -563,8 +561,8 @@ impl Resolver<'_> {
         for &v in values.chain([motion.start_s].iter()) {
             self.check(&format!("{what}: motion"), v, |_| true, "finite numbers")?;
         }
-        if motion.end_s.is_some_and(|end| !(end >= motion.start_s)) {
-            return Err(self.invalid(format!("{what}: motion"), "end_s must not be before start_s"));
+        if motion.end_s.is_some_and(|end| end.is_nan() || end < motion.start_s) {
+            return Err(self.invalid(format!("{what}: motion"), "end_s must be a number not before start_s"));
         }
         Ok(())
     }

@@ -301,7 +301,7 @@ mod tests {
         let window = StepWindow { t0: 0.0, t1: 1.0 / 30.0 };
         let start = Vector3::zeros();
         let (mut end, mut velocity) = (start, Vector3::zeros());
-        resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ball.clone()], window);
+        resolve_particle(&start, &mut end, &mut velocity, SURFACE, std::slice::from_ref(&ball), window);
         let centre_end = 0.2 - 8.0 / 30.0;
         assert!((end.z - (centre_end - 0.102)).abs() < 1e-9, "ends at the sphere's front: {end}");
         assert!((velocity - Vector3::new(0.0, 0.0, -8.0)).norm() < 1e-12);

@@ -483,8 +483,8 @@ fn aggregate(graph: &Csr<u32>) -> (Vec<u32>, usize) {
         }
     }
     let rooted = owner.clone();
-    for i in 0..n {
-        if owner[i] != NONE {
+    for (i, slot) in owner.iter_mut().enumerate() {
+        if *slot != NONE {
             continue;
         }
         let mut best: Option<(usize, u32)> = None;
@@ -499,7 +499,7 @@ fn aggregate(graph: &Csr<u32>) -> (Vec<u32>, usize) {
             }
         }
         if let Some((_, a)) = best {
-            owner[i] = a;
+            *slot = a;
         }
     }
     for i in 0..n {

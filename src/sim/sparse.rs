@@ -114,8 +114,8 @@ mod tests {
         }
         let flat = nalgebra::DVector::from_iterator(9, x.iter().flat_map(|v| v.iter().copied()));
         let expected = dense * flat;
-        for i in 0..3 {
-            assert!((y[i] - expected.fixed_rows::<3>(3 * i)).norm() < 1e-12);
+        for (i, yi) in y.iter().enumerate() {
+            assert!((yi - expected.fixed_rows::<3>(3 * i)).norm() < 1e-12);
         }
     }
 }

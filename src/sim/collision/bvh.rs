@@ -98,7 +98,7 @@ impl SweptBvh {
         }
         self.bvh.refit(&mut self.workspace);
         self.steps += 1;
-        if self.steps % OPTIMIZE_EVERY == 0 {
+        if self.steps.is_multiple_of(OPTIMIZE_EVERY) {
             self.bvh.optimize_incremental(&mut self.workspace);
         }
     }

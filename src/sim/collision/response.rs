@@ -162,6 +162,10 @@ impl Zones {
     }
 }
 
+/// Where a point that starts at the given position (m) must end the step:
+/// the prescribed motion a zone held by a kinematic point follows.
+pub type PrescribedEnd = dyn Fn(&Vector3<f64>) -> Vector3<f64>;
+
 /// Makes the free points of one zone (`members`) move rigidly, keeping their
 /// linear and angular momentum about their centre of mass at the start of
 /// the step. `prescribed` maps a start position to where the pinned or
@@ -172,11 +176,7 @@ impl Zones {
 /// affine map of the start positions (`I + t h Ω` for a free zone, whose
 /// `AᵀA ≥ I` never brings two points closer), so no two features of the zone
 /// can meet during the step if they were apart at its start.
-pub fn rigidify(
-    points: &mut Points,
-    members: impl Iterator<Item = u32> + Clone,
-    prescribed: Option<&dyn Fn(&Vector3<f64>) -> Vector3<f64>>,
-) {
+pub fn rigidify(points: &mut Points, members: impl Iterator<Item = u32> + Clone, prescribed: Option<&PrescribedEnd>) {
     let inverse_mass = points.inverse_mass;
     let free = members.map(|i| i as usize).filter(move |&i| inverse_mass[i] > 0.0);
     if let Some(carry) = prescribed {

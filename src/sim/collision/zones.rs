@@ -11,7 +11,7 @@ use std::time::Instant;
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 use super::detect::{Detection, Scope};
-use super::response::{Points, rigidify};
+use super::response::{Points, PrescribedEnd, rigidify};
 use super::{CollisionPipeline, CollisionReport, Kinematic, PassHook, ResponseStage};
 
 impl CollisionPipeline {
@@ -102,7 +102,7 @@ impl CollisionPipeline {
                     h: window.h(),
                 };
                 let zone = ws.zone_members[start..end].iter().map(|&(_, i)| i);
-                rigidify(&mut points, zone, carried.then_some(&carry as &dyn Fn(&Vector3<f64>) -> Vector3<f64>));
+                rigidify(&mut points, zone, carried.then_some(&carry as &PrescribedEnd));
                 start = end;
             }
             self.ws.contacts = crossings;
