@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 
@@ -106,14 +107,61 @@ fn power_label(v: &f64) -> String {
     format!("{value:.digits$}")
 }
 
+/// A drawing backend's pixel, x right and y down.
+type Pixel = (i32, i32);
+
+/// The outline of the `shape`-th tolerance's marker (as [`draw_markers`]
+/// draws it) around the pixel `(x, y)`, for the legend.
+fn marker_outline(shape: usize, (x, y): Pixel) -> Vec<Pixel> {
+    let corners: Vec<(f64, f64)> = match shape % 3 {
+        0 => {
+            (0..=16).map(|k| std::f64::consts::TAU * k as f64 / 16.0).map(|a| (5.0 * a.cos(), 5.0 * a.sin())).collect()
+        }
+        1 => vec![(0.0, -7.0), (6.1, 3.5), (-6.1, 3.5), (0.0, -7.0)],
+        _ => vec![(-5.0, -5.0), (5.0, -5.0), (5.0, 5.0), (-5.0, 5.0), (-5.0, -5.0)],
+    };
+    corners.into_iter().map(|(dx, dy)| (x + dx.round() as i32, y + dy.round() as i32)).collect()
+}
+
+/// The speed-against-error chart's axes: log10 ms per frame, log10 error.
+type LogLogChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Draws the `shape`-th tolerance's marker (circle, triangle, square, about
+/// 10 px across) at each point with its style.
+fn draw_markers<DB: DrawingBackend>(
+    chart: &mut LogLogChart<'_, DB>,
+    shape: usize,
+    points: impl Iterator<Item = ((f64, f64), ShapeStyle)>,
+) -> Result<(), String> {
+    let drawn = match shape % 3 {
+        0 => chart.draw_series(points.map(|(at, style)| EmptyElement::at(at) + Circle::new((0, 0), 5, style))),
+        1 => chart.draw_series(points.map(|(at, style)| EmptyElement::at(at) + TriangleMarker::new((0, 0), 7, style))),
+        _ => chart
+            .draw_series(points.map(|(at, style)| EmptyElement::at(at) + Rectangle::new([(-5, -5), (5, 5)], style))),
+    };
+    drawn.map(|_| ()).map_err(|e| e.to_string())
+}
+
+/// The distinct tolerances of the sweeps, loosest first.
+fn tolerances(sweeps: &[SceneSweep]) -> Vec<f64> {
+    let mut all: Vec<f64> = sweeps.iter().flat_map(|(_, points)| points.iter().map(|p| p.tolerance)).collect();
+    all.sort_by(|a, b| b.total_cmp(a));
+    all.dedup();
+    all
+}
+
 /// Speed against error of accuracy sweeps, one curve per scene: ms per frame
-/// against the contact-window error, every run a dot labelled with its steps
-/// per frame, the Pareto front a line.
+/// against the contact-window error, every run a marker (its shape the
+/// tolerance, filled on the Pareto front), each steps-per-frame group labelled
+/// once, the Pareto front a line.
 pub fn speed_against_error(dir: &Path, sweeps: &[SceneSweep]) -> Result<(), PlotError> {
     fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, sweeps: &[SceneSweep]) -> Result<(), String> {
         let all = || sweeps.iter().flat_map(|(_, points)| points);
+        let tolerances = tolerances(sweeps);
+        let shape_of = |p: &AccuracyPoint| tolerances.iter().position(|&t| t == p.tolerance).unwrap_or(0);
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let mut chart = chart_builder(root, "Speed against error (Pareto front: line)", 80)
+        let caption = "Speed against error (Pareto front: line and filled markers)";
+        let mut chart = chart_builder(root, caption, 80)
             .build_cartesian_2d(log10_span(all().map(|p| p.ms_per_frame)), log10_span(all().map(|p| p.contact_error)))
             .map_err(|e| e.to_string())?;
         chart
@@ -137,22 +185,38 @@ pub fn speed_against_error(dir: &Path, sweeps: &[SceneSweep]) -> Result<(), Plot
                 .map_err(|e| e.to_string())?
                 .label(scene.as_str())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(2)));
-            chart
-                .draw_series(points.iter().map(|p| {
+            for shape in 0..tolerances.len() {
+                let marked = points.iter().filter(|p| shape_of(p) == shape).map(|p| {
                     let style = if p.pareto { color.filled() } else { color.stroke_width(1) };
-                    EmptyElement::at(at(p))
-                        + Circle::new((0, 0), 5, style)
-                        + Text::new(
-                            format!("{}×, {:.0e}", p.steps_per_frame, p.tolerance),
-                            (7, -14),
-                            ("sans-serif", 13),
-                        )
+                    (at(p), style)
+                });
+                draw_markers(&mut chart, shape, marked)?;
+            }
+            chart
+                .draw_series(steps_labels(points).map(|p| {
+                    let text = format!("{}×", p.steps_per_frame);
+                    EmptyElement::at(at(p)) + Text::new(text, (-10, -26), ("sans-serif", LABEL_PX))
                 }))
                 .map_err(|e| e.to_string())?;
         }
-        legend(&mut chart, SeriesLabelPosition::MiddleRight)
+        for (n, tolerance) in tolerances.iter().enumerate() {
+            chart
+                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+                .map_err(|e| e.to_string())?
+                .label(format!("tolerance {tolerance:.0e}"))
+                .legend(move |(x, y)| PathElement::new(marker_outline(n, (x + 12, y)), BLACK.stroke_width(1)));
+        }
+        legend(&mut chart, SeriesLabelPosition::LowerRight)
     }
     write_chart(dir, "speed_against_error", &|root| draw(root, sweeps), &|root| draw(root, sweeps))
+}
+
+/// The fastest run of each steps-per-frame group, where the group's "N×"
+/// label goes.
+fn steps_labels(points: &[AccuracyPoint]) -> impl Iterator<Item = &AccuracyPoint> {
+    points.iter().filter(move |p| {
+        !points.iter().any(|q| q.steps_per_frame == p.steps_per_frame && q.ms_per_frame < p.ms_per_frame)
+    })
 }
 
 /// The largest stretch strain at each frame end, one line per case.
@@ -225,4 +289,40 @@ pub fn time_per_stage(dir: &Path, results: &[BenchResult]) -> Result<(), PlotErr
         legend(&mut chart, SeriesLabelPosition::UpperRight)
     }
     write_chart(dir, "time_per_stage", &|root| draw(root, results), &|root| draw(root, results))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(steps_per_frame: u32, tolerance: f64, ms_per_frame: f64) -> AccuracyPoint {
+        AccuracyPoint {
+            steps_per_frame,
+            tolerance,
+            ms_per_frame,
+            contact_error: 0.01,
+            end_error: None,
+            max_strain: 0.01,
+            pareto: false,
+        }
+    }
+
+    #[test]
+    fn each_tolerance_gets_one_marker_and_each_step_group_one_label_at_its_fastest_run() {
+        let points = vec![run(1, 1e-3, 40.0), run(1, 1e-2, 38.0), run(2, 1e-3, 80.0), run(2, 1e-4, 90.0)];
+        let sweeps = vec![("a".to_owned(), points.clone()), ("b".to_owned(), vec![run(1, 1e-2, 5.0)])];
+        assert_eq!(tolerances(&sweeps), [1e-2, 1e-3, 1e-4]);
+        let labelled: Vec<(u32, f64)> = steps_labels(&points).map(|p| (p.steps_per_frame, p.ms_per_frame)).collect();
+        assert_eq!(labelled, [(1, 38.0), (2, 80.0)]);
+    }
+
+    #[test]
+    fn marker_outlines_are_closed_and_about_ten_pixels_across() {
+        for shape in 0..3 {
+            let outline = marker_outline(shape, (100, 50));
+            assert_eq!(outline.first(), outline.last(), "shape {shape} is closed");
+            let width = outline.iter().map(|p| p.0).max().unwrap() - outline.iter().map(|p| p.0).min().unwrap();
+            assert!((10..=13).contains(&width), "shape {shape} is {width} px wide");
+        }
+    }
 }
