@@ -35,7 +35,7 @@ use rayon::prelude::*;
 use super::cholesky::CholeskyError;
 use super::cloth::{Cloth, SpringKind};
 use super::colliders::Collider;
-use super::collision::obstacles::{MeshCollider, Obstacles};
+use super::collision::obstacles::{ClothScale, MeshCollider, Obstacles};
 use super::collision::{
     ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, Kinematic, ParticleCollision,
     PassState, ResponseStage,
@@ -358,6 +358,7 @@ fn collision_pipeline(
         };
         particles[pin.vertex as usize].pinned = Some(kinematic);
     }
+    let scale = ClothScale::of(&cloth.rest_positions, &cloth.triangles, particles.iter().map(|p| p.thickness));
     let self_collision =
         (0..cloth.garments.len()).map(|g| settings.self_collision.get(g).copied().unwrap_or(true)).collect();
     CollisionPipeline::new(
@@ -365,7 +366,7 @@ fn collision_pipeline(
         cloth.triangle_garment.clone(),
         self_collision,
         particles,
-        Obstacles::new(colliders, meshes),
+        Obstacles::new(colliders, meshes, scale),
         settings.collision.clone(),
     )
 }

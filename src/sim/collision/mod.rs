@@ -460,7 +460,10 @@ mod tests {
 
     use nalgebra::{Isometry3, Vector3};
 
-    use super::obstacles::MeshCollider;
+    use super::obstacles::{ClothScale, MeshCollider};
+
+    /// A cloth fine enough that no curved collider needs surface features.
+    const FINE_CLOTH: ClothScale = ClothScale { longest_edge_m: 0.01, thinnest_m: THICKNESS };
     use super::*;
     use crate::mesh::generate;
     use crate::sim::colliders::{Collider, Shape};
@@ -503,7 +506,7 @@ mod tests {
         };
         let particles = vec![ParticleCollision { thickness: THICKNESS, friction: 0.3, pinned: None }; start.len()];
         let settings = CollisionSettings { representative_triangles, ..Default::default() };
-        let obstacles = Obstacles::new(&[blade], &[tetrahedron]);
+        let obstacles = Obstacles::new(&[blade], &[tetrahedron], FINE_CLOTH);
         let triangle_count = grid.triangles.len();
         let mut pipeline =
             CollisionPipeline::new(grid.triangles, vec![0; triangle_count], vec![true], particles, obstacles, settings)

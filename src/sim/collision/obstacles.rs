@@ -11,8 +11,13 @@
 //! cloth edge of length L can dip L²/8R into a surface of radius R between its
 //! ends (a centimetre into a 3 mm needle), so cylinders and cones also carry
 //! their generator lines, and an edge cannot enter the side without crossing
-//! one. Triangle-mesh colliders contribute all their vertices, edges and
-//! triangles. Every obstacle vertex is stored in its
+//! one. A sphere has no feature at all, and a coarse cloth draped on a small
+//! one bows into it between particles held a thickness off its surface (a
+//! triangle of edge L dips about L²/6R below its corners); when the cloth is
+//! that coarse for a sphere ([`ClothScale::needs_surface_lattice`]), the
+//! sphere carries a geodesic lattice of surface points and edges fine enough
+//! that the bow cannot reach the surface between them. Triangle-mesh colliders
+//! contribute all their vertices, edges and triangles. Every obstacle vertex is stored in its
 //! collider's frame and moves with the collider's pose; obstacles have
 //! infinite mass.
 
@@ -29,6 +34,47 @@ use crate::sim::vertex_animation::VertexAnimation;
 /// Segments of a rim circle (a needle's or a cylinder's edge), and generator
 /// lines along a cylinder's or cone's side.
 const RIM_SEGMENTS: usize = 24;
+
+/// Finest geodesic lattice a sphere gets: 10 × 4⁵ + 2 = 10242 points.
+const MAX_LATTICE_LEVEL: u32 = 5;
+
+/// How coarse and how thick the cloth is: what decides whether a curved
+/// collider needs surface features to keep the cloth's faces, not only its
+/// particles, off it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClothScale {
+    /// The cloth's longest triangle edge at rest, m.
+    pub longest_edge_m: f64,
+    /// The smallest collision thickness of its particles, m.
+    pub thinnest_m: f64,
+}
+
+impl ClothScale {
+    /// The scale of a cloth with `triangles` over `rest_positions` (m) and
+    /// particle `thicknesses` (m).
+    pub fn of(rest_positions: &[Vector3<f64>], triangles: &[[u32; 3]], thicknesses: impl Iterator<Item = f64>) -> Self {
+        let edge = |a: u32, b: u32| (rest_positions[a as usize] - rest_positions[b as usize]).norm();
+        let longest_edge_m =
+            triangles.iter().flat_map(|&[a, b, c]| [edge(a, b), edge(b, c), edge(c, a)]).fold(0.0, f64::max);
+        ClothScale { longest_edge_m, thinnest_m: thicknesses.fold(f64::INFINITY, f64::min) }
+    }
+
+    /// Whether a triangle of the longest edge, its corners resting a
+    /// thickness off a sphere of `radius` m, can bow into the sphere: no
+    /// point of a triangle of longest edge L dips more than L²/6R below its
+    /// corners (the equilateral triangle's centre), and a quarter of the
+    /// thickness is kept as margin.
+    pub fn needs_surface_lattice(&self, radius: f64) -> bool {
+        self.longest_edge_m.powi(2) / (6.0 * radius) > 0.75 * self.thinnest_m
+    }
+
+    /// Longest lattice edge a sphere of `radius` m may have for this cloth:
+    /// no longer than the cloth's edges, and standing (as a chord s stands
+    /// s²/8R inside the sphere) at most a quarter of the thickness inside.
+    pub fn lattice_chord(&self, radius: f64) -> f64 {
+        self.longest_edge_m.min((2.0 * radius * self.thinnest_m).sqrt())
+    }
+}
 
 /// A triangle mesh obstacle: rigid, moving like an analytic collider, or
 /// deforming (an animated body) with its vertices sampled per frame.
@@ -97,11 +143,17 @@ pub struct Obstacles {
 }
 
 impl Obstacles {
-    /// The features of `analytic` colliders and the whole of `meshes`.
-    pub fn new(analytic: &[Collider], meshes: &[MeshCollider]) -> Self {
+    /// The features of `analytic` colliders (what a cloth of `scale` needs of
+    /// them) and the whole of `meshes`.
+    pub fn new(analytic: &[Collider], meshes: &[MeshCollider], scale: ClothScale) -> Self {
         let mut o = Obstacles::default();
         for collider in analytic {
-            let (points, edges) = sharp_features(&collider.shape);
+            let (points, edges) = match collider.shape {
+                Shape::Sphere { radius } if scale.needs_surface_lattice(radius) => {
+                    geodesic_lattice(radius, scale.lattice_chord(radius))
+                }
+                ref shape => sharp_features(shape),
+            };
             if points.is_empty() {
                 continue;
             }
@@ -206,6 +258,60 @@ fn sharp_features(shape: &Shape) -> (Vec<Vector3<f64>>, Vec<[u32; 2]>) {
     }
 }
 
+/// Points and edges of a geodesic sphere of `radius` m, every point on the
+/// surface: an icosahedron whose triangles are split in four until no edge
+/// is longer than `chord` m, or [`MAX_LATTICE_LEVEL`] times.
+fn geodesic_lattice(radius: f64, chord: f64) -> (Vec<Vector3<f64>>, Vec<[u32; 2]>) {
+    let phi = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut points: Vec<Vector3<f64>> = [(-1.0, phi), (1.0, phi), (-1.0, -phi), (1.0, -phi)]
+        .iter()
+        .flat_map(|&(a, b)| [Vector3::new(a, b, 0.0), Vector3::new(0.0, a, b), Vector3::new(b, 0.0, a)])
+        .map(|p| p.normalize())
+        .collect();
+    let mut triangles = icosahedron_faces(&points);
+    let longest = |points: &[Vector3<f64>], triangles: &[[u32; 3]]| {
+        let edge = |a: u32, b: u32| (points[a as usize] - points[b as usize]).norm();
+        triangles.iter().flat_map(|&[a, b, c]| [edge(a, b), edge(b, c), edge(c, a)]).fold(0.0, f64::max)
+    };
+    for _ in 0..MAX_LATTICE_LEVEL {
+        if longest(&points, &triangles) * radius <= chord {
+            break;
+        }
+        let mut midpoints = std::collections::HashMap::new();
+        let mut midpoint = |a: u32, b: u32, points: &mut Vec<Vector3<f64>>| {
+            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                points.push((points[a as usize] + points[b as usize]).normalize());
+                points.len() as u32 - 1
+            })
+        };
+        triangles = triangles
+            .iter()
+            .flat_map(|&[a, b, c]| {
+                let (ab, bc, ca) =
+                    (midpoint(a, b, &mut points), midpoint(b, c, &mut points), midpoint(c, a, &mut points));
+                [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+            })
+            .collect();
+    }
+    let mut edges: Vec<[u32; 2]> =
+        triangles.iter().flat_map(|&[a, b, c]| [[a, b], [b, c], [c, a]]).map(|[a, b]| [a.min(b), a.max(b)]).collect();
+    edges.sort_unstable();
+    edges.dedup();
+    (points.into_iter().map(|p| p * radius).collect(), edges)
+}
+
+/// The faces of an icosahedron with unit-sphere `corners`: the triples of
+/// corners that are pairwise neighbours (an edge is the shortest distance).
+fn icosahedron_faces(corners: &[Vector3<f64>]) -> Vec<[u32; 3]> {
+    let edge = (1..corners.len()).map(|b| (corners[0] - corners[b]).norm()).fold(f64::INFINITY, f64::min);
+    let near = |a: u32, b: u32| ((corners[a as usize] - corners[b as usize]).norm() - edge).abs() < 1e-9;
+    let n = corners.len() as u32;
+    (0..n)
+        .flat_map(|a| (a + 1..n).flat_map(move |b| (b + 1..n).map(move |c| [a, b, c])))
+        .filter(|&[a, b, c]| near(a, b) && near(b, c) && near(c, a))
+        .collect()
+}
+
 fn sign(bit: usize) -> f64 {
     if bit == 0 { -1.0 } else { 1.0 }
 }
@@ -236,6 +342,9 @@ mod tests {
     use super::*;
     use crate::sim::motion::Placement;
     use nalgebra::Isometry3;
+
+    /// A cloth fine enough that no curved collider needs surface features.
+    const FINE_CLOTH: ClothScale = ClothScale { longest_edge_m: 0.01, thinnest_m: 0.0025 };
 
     fn collider(shape: Shape) -> Collider {
         let placement = Placement { rest_pose: Isometry3::translation(1.0, 0.0, 0.0), motion: None };
@@ -268,10 +377,45 @@ mod tests {
     }
 
     #[test]
+    fn a_sphere_gets_a_surface_lattice_only_under_a_coarse_cloth() {
+        // bad_mesh: 4.5-6.4 cm triangles on a 15 cm sphere dip 4.5 mm, past
+        // the 2.5 mm thickness; drape_sphere's 2.2 cm on 30 cm, 0.28 mm.
+        let coarse = ClothScale { longest_edge_m: 0.064, thinnest_m: 0.0025 };
+        let fine = ClothScale { longest_edge_m: 0.0224, thinnest_m: 0.0025 };
+        assert!(coarse.needs_surface_lattice(0.15));
+        assert!(!fine.needs_surface_lattice(0.3));
+        // The editor tests' 0.8 m cloth of 24 × 24 on a 25 cm ball: 1.6 mm.
+        assert!(!ClothScale { longest_edge_m: 0.049, thinnest_m: 0.0025 }.needs_surface_lattice(0.25));
+        let sphere = [collider(Shape::Sphere { radius: 0.15 })];
+        assert!(Obstacles::new(&[collider(Shape::Sphere { radius: 0.3 })], &[], fine).is_empty());
+        let o = Obstacles::new(&sphere, &[], coarse);
+        assert_eq!(o.vertex_count(), 642, "three subdivisions: 10 × 4³ + 2 points");
+        assert_eq!(o.feature_edges.len(), 1920);
+    }
+
+    #[test]
+    fn the_geodesic_lattice_lies_on_its_sphere_with_edges_no_longer_than_asked() {
+        let (radius, chord) = (0.15, 0.027);
+        let (points, edges) = geodesic_lattice(radius, chord);
+        assert!(points.iter().all(|p| (p.norm() - radius).abs() < 1e-12));
+        let euler = points.len() as i64 - edges.len() as i64 + (2 * edges.len() / 3) as i64;
+        assert_eq!(euler, 2, "a closed triangulated sphere: V − E + F = 2");
+        let longest = edges.iter().map(|[a, b]| (points[*a as usize] - points[*b as usize]).norm()).fold(0.0, f64::max);
+        assert!(longest <= chord, "longest edge {longest} m");
+        // Its chords stand at most a quarter of a 2.5 mm thickness inside.
+        assert!(longest * longest / (8.0 * radius) <= 0.0025 / 4.0);
+        for [a, b] in &edges {
+            let middle = (points[*a as usize] + points[*b as usize]) / 2.0;
+            assert!(radius - middle.norm() <= 0.0025 / 4.0 + 1e-12);
+        }
+    }
+
+    #[test]
     fn obstacle_vertices_follow_their_collider() {
         let o = Obstacles::new(
             &[collider(Shape::Sphere { radius: 1.0 }), collider(Shape::Cone { radius: 0.1, half_height: 0.5 })],
             &[],
+            FINE_CLOTH,
         );
         assert_eq!(o.bodies.len(), 1, "a sphere has no sharp feature");
         assert_eq!(o.vertex_count(), RIM_SEGMENTS + 1);
@@ -293,7 +437,7 @@ mod tests {
             friction: None,
             animation: Some(Arc::new(animation)),
         };
-        let o = Obstacles::new(&[], &[mesh]);
+        let o = Obstacles::new(&[], &[mesh], FINE_CLOTH);
         let (mut start, mut end) = (Vec::new(), Vec::new());
         o.positions(StepWindow { t0: 0.0, t1: 0.05 }, &mut start, &mut end);
         assert_eq!(start, [Vector3::new(0.0, 0.0, 1.0), Vector3::new(1.0, 0.0, 1.0)]);
