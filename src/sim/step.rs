@@ -289,7 +289,18 @@ struct ColliderPaths<'a> {
     window: StepWindow,
 }
 
-impl ColliderPaths<'_> {
+impl<'a> ColliderPaths<'a> {
+    /// The paths from `start` (m) over `window`, pinned particles `fixed`.
+    fn new(
+        start: &'a [Vector3<f64>],
+        fixed: &'a [bool],
+        surfaces: &'a [ParticleSurface],
+        colliders: &'a [Collider],
+        window: StepWindow,
+    ) -> Self {
+        ColliderPaths { start, fixed, surfaces, colliders, window }
+    }
+
     /// Resolves every free particle `selected` (by index and proposed end)
     /// from its start to its proposed `end` (m, corrected in place with its
     /// `velocity`, m/s) against the analytic colliders, writing its contact
@@ -725,13 +736,7 @@ impl Simulator {
             };
             let (limits, constraints, mass) = (&mut self.strain_limits, &self.ws.constraints, &self.particles.mass);
             let projection = &mut report.projection;
-            let paths = ColliderPaths {
-                start: &self.x,
-                fixed: &self.fixed,
-                surfaces: &self.surfaces,
-                colliders: &self.colliders,
-                window,
-            };
+            let paths = ColliderPaths::new(&self.x, &self.fixed, &self.surfaces, &self.colliders, window);
             let (contacts, resting_on) = (&mut self.ws.contacts, &mut self.resting_on);
             let before_projection = &mut self.ws.before_projection;
             let mut after_pass = |pass: PassState| {
@@ -906,13 +911,7 @@ impl Simulator {
     /// on. Returns the contact count.
     fn collide_with_colliders(&mut self, window: StepWindow) -> u32 {
         self.ws.contacts.resize(self.x.len(), 0);
-        let paths = ColliderPaths {
-            start: &self.x,
-            fixed: &self.fixed,
-            surfaces: &self.surfaces,
-            colliders: &self.colliders,
-            window,
-        };
+        let paths = ColliderPaths::new(&self.x, &self.fixed, &self.surfaces, &self.colliders, window);
         let ws = &mut self.ws;
         let (contacts, _) =
             paths.resolve(&mut ws.next_x, &mut ws.next_v, |_, _| true, &mut ws.contacts, &mut self.resting_on);
