@@ -16,10 +16,10 @@
 //! triangle of edge L dips about L²/6R below its corners); when the cloth is
 //! that coarse for a sphere ([`ClothScale::needs_surface_lattice`]), the
 //! sphere carries a geodesic lattice of surface points and edges fine enough
-//! that the bow cannot reach the surface between them. Triangle-mesh colliders
-//! contribute all their vertices, edges and triangles. Every obstacle vertex is stored in its
-//! collider's frame and moves with the collider's pose; obstacles have
-//! infinite mass.
+//! that the bow cannot reach the surface between them. Triangle-mesh
+//! colliders contribute all their vertices, edges and triangles. Every
+//! obstacle vertex is stored in its collider's frame and moves with the
+//! collider's pose; obstacles have infinite mass.
 
 use std::sync::Arc;
 
@@ -40,7 +40,8 @@ const MAX_LATTICE_LEVEL: u32 = 5;
 
 /// How coarse and how thick the cloth is: what decides whether a curved
 /// collider needs surface features to keep the cloth's faces, not only its
-/// particles, off it.
+/// particles, off it. Taken when the simulator is built: a thickness tuned
+/// live afterwards does not rebuild the lattice.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClothScale {
     /// The cloth's longest triangle edge at rest, m.
@@ -53,9 +54,7 @@ impl ClothScale {
     /// The scale of a cloth with `triangles` over `rest_positions` (m) and
     /// particle `thicknesses` (m).
     pub fn of(rest_positions: &[Vector3<f64>], triangles: &[[u32; 3]], thicknesses: impl Iterator<Item = f64>) -> Self {
-        let edge = |a: u32, b: u32| (rest_positions[a as usize] - rest_positions[b as usize]).norm();
-        let longest_edge_m =
-            triangles.iter().flat_map(|&[a, b, c]| [edge(a, b), edge(b, c), edge(c, a)]).fold(0.0, f64::max);
+        let longest_edge_m = longest_edge(rest_positions, triangles);
         ClothScale { longest_edge_m, thinnest_m: thicknesses.fold(f64::INFINITY, f64::min) }
     }
 
@@ -269,12 +268,8 @@ fn geodesic_lattice(radius: f64, chord: f64) -> (Vec<Vector3<f64>>, Vec<[u32; 2]
         .map(|p| p.normalize())
         .collect();
     let mut triangles = icosahedron_faces(&points);
-    let longest = |points: &[Vector3<f64>], triangles: &[[u32; 3]]| {
-        let edge = |a: u32, b: u32| (points[a as usize] - points[b as usize]).norm();
-        triangles.iter().flat_map(|&[a, b, c]| [edge(a, b), edge(b, c), edge(c, a)]).fold(0.0, f64::max)
-    };
     for _ in 0..MAX_LATTICE_LEVEL {
-        if longest(&points, &triangles) * radius <= chord {
+        if longest_edge(&points, &triangles) * radius <= chord {
             break;
         }
         let mut midpoints = std::collections::HashMap::new();
@@ -298,6 +293,13 @@ fn geodesic_lattice(radius: f64, chord: f64) -> (Vec<Vector3<f64>>, Vec<[u32; 2]
     edges.sort_unstable();
     edges.dedup();
     (points.into_iter().map(|p| p * radius).collect(), edges)
+}
+
+/// The longest edge of `triangles` over `points`, in the points' unit (0
+/// without triangles).
+fn longest_edge(points: &[Vector3<f64>], triangles: &[[u32; 3]]) -> f64 {
+    let edge = |a: u32, b: u32| (points[a as usize] - points[b as usize]).norm();
+    triangles.iter().flat_map(|&[a, b, c]| [edge(a, b), edge(b, c), edge(c, a)]).fold(0.0, f64::max)
 }
 
 /// The faces of an icosahedron with unit-sphere `corners`: the triples of
