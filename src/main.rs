@@ -11,8 +11,9 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use drape::bake::output::BakeFolder;
+use drape::bake::resume::{self, ResumeError};
 use drape::bake::summary::BakeSummary;
-use drape::bake::{self, BakeError};
+use drape::bake::{self, BakeError, Baker};
 use drape::bench;
 use drape::bench::accuracy::ErrorMeasure;
 use drape::fabric_lab;
@@ -61,6 +62,11 @@ enum Command {
         /// Bake only the first N frames of the scene's range.
         #[arg(long)]
         frames: Option<usize>,
+        /// Go on with the unfinished bake in --out (stopped by Ctrl-C, a
+        /// crash or a kill) after its last finished frame; the result is the
+        /// same, bit for bit, as a bake that never stopped.
+        #[arg(long)]
+        resume: bool,
     },
     /// Validate a scene and its assets, and print what they contain.
     Check {
@@ -277,7 +283,7 @@ fn main() -> ExitCode {
             let screenshot = screenshot.map(|path| drape::app::Screenshot { path, after_frames: screenshot_after });
             run_edit(scene, screenshot)
         }
-        Command::Bake { scene, out, frames } => run_bake(&scene, &out, frames),
+        Command::Bake { scene, out, frames, resume } => run_bake(&scene, &out, frames, resume),
         Command::Check { scene } => run_check(&scene),
         Command::CheckBake { dir, scene, json } => run_check_bake(&dir, scene.as_deref(), json.as_deref()),
         Command::Bench {
@@ -369,20 +375,33 @@ fn run_check(path: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
-fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failure> {
+fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Result<(), Failure> {
     let scene = load_scene(path)?;
     let frames = frames.map_or(scene.frame_count, |n| n.min(scene.frame_count));
     let cancel = Arc::new(AtomicBool::new(false));
     let flag = cancel.clone();
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).map_err(|e| Failure::Internal(e.to_string()))?;
 
-    let mut folder = BakeFolder::create(out, &scene).map_err(input)?;
+    let mut baker = Baker::new(&scene).map_err(input)?;
+    let fingerprint = resume::fingerprint(&scene, baker.simulator());
+    let (mut folder, mut records) = if resume {
+        let (folder, checkpoint, records) = BakeFolder::reopen(out, &scene, fingerprint).map_err(input)?;
+        baker
+            .resume_at(checkpoint.frame, &checkpoint.snapshot)
+            .map_err(|source| input(ResumeError::State { dir: out.to_owned(), source }))?;
+        println!("resuming the bake in {} after frame {}", out.display(), checkpoint.frame);
+        (folder, records)
+    } else {
+        (BakeFolder::create(out, &scene).map_err(input)?, Vec::new())
+    };
     let bar = ProgressBar::new(frames as u64).with_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} frames  {msg}  eta {eta}")
             .unwrap_or(ProgressStyle::default_bar()),
     );
-    let (records, failure) = bake::run(&scene, frames, &cancel, |sim, record| {
+    bar.set_position(baker.frame() as u64);
+    let (new_records, failure) = bake::run_from(baker, frames, &cancel, |sim, record| {
         folder.write_frame(record.frame, sim.time(), sim.positions())?;
+        folder.commit(record.frame, (record.frame > 0).then_some(record), fingerprint, sim.snapshot()?)?;
         if record.frame > 0 {
             let ms = record.timings.total().as_secs_f64() * 1e3;
             bar.set_message(format!("{ms:.1} ms/frame, strain {:.2} %", record.max_strain * 100.0));
@@ -392,9 +411,10 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failur
     })
     .map_err(|e| match e {
         BakeError::Start(_) | BakeError::Write(_) => input(e),
-        BakeError::Step { .. } => Failure::Internal(e.to_string()),
+        BakeError::Step { .. } | BakeError::Snapshot(_) => Failure::Internal(e.to_string()),
     })?;
     bar.finish_and_clear();
+    records.extend(new_records);
 
     let cancelled = cancel.load(Ordering::Relaxed) && records.len() < frames;
     let stopped = match (&failure, cancelled) {
@@ -404,6 +424,21 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failur
     };
     let summary = BakeSummary::new(&scene, &records, frames, stopped);
     folder.finish(&summary).map_err(input)?;
+    print_bake_summary(&summary, &scene, out);
+    let again = format!("`drape bake {} --out {} --resume` goes on from there", path.display(), out.display());
+    match (failure, cancelled) {
+        (Some(e), _) => Err(Failure::Internal(format!("{e} (frames before it are in {})", out.display()))),
+        (None, true) => Err(Failure::Cancelled(format!(
+            "cancelled: {} whole frames kept in {}; {again}",
+            records.len() + 1,
+            out.display()
+        ))),
+        (None, false) => Ok(()),
+    }
+}
+
+/// Prints a bake's last lines: speed, effort, strain, contacts, rollbacks.
+fn print_bake_summary(summary: &BakeSummary, scene: &Scene, out: &Path) {
     println!(
         "{} frames of '{}' in {}: median {:.1} ms/frame on {} threads, {:.1} CG iterations/step, max strain {:.2} %, \
          at most {} particle-collider and {} triangle contacts",
@@ -420,13 +455,6 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>) -> Result<(), Failur
     if summary.rollbacks > 0 {
         let causes = summary.rollback_causes.phrases().join(", ");
         println!("{} steps rolled back and retried halved ({causes})", summary.rollbacks);
-    }
-    match (failure, cancelled) {
-        (Some(e), _) => Err(Failure::Internal(format!("{e} (frames before it are in {})", out.display()))),
-        (None, true) => {
-            Err(Failure::Cancelled(format!("cancelled: {} whole frames kept in {}", records.len() + 1, out.display())))
-        }
-        (None, false) => Ok(()),
     }
 }
 

@@ -52,7 +52,7 @@ fn write_geometry(
     let mut folder = BakeFolder::create(dir, scene).map_err(|e| e.to_string())?;
     for (k, frame) in frames.iter().enumerate() {
         if stop.load(Ordering::Relaxed) {
-            return Ok(());
+            return folder.abandon().map_err(|e| e.to_string());
         }
         let time_s = k as f64 / scene.fps;
         folder.write_frame(k, time_s, &frame.positions).map_err(|e| e.to_string())?;

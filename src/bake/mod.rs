@@ -2,6 +2,7 @@
 //! per stage, solver iterations, strain, contacts), into a folder of exports.
 
 pub mod output;
+pub mod resume;
 pub mod summary;
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -10,11 +11,12 @@ use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
 use crate::sim::adaptive::{AdaptiveSettings, RollbackCauses, Stepper, Unrecoverable};
 use crate::sim::fabric::Fabric;
+use crate::sim::snapshot::{Snapshot, SnapshotError};
 use crate::sim::step::{StageTimings, TuningError};
 use crate::sim::{SimError, Simulator};
 
 /// What happened during one frame.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrameRecord {
     /// Frame number (1 is the first simulated frame).
     pub frame: usize,
@@ -88,6 +90,9 @@ pub enum BakeError {
     /// Output could not be written.
     #[error(transparent)]
     Write(#[from] crate::io::atomic::WriteError),
+    /// The simulation's state could not be saved for `--resume`.
+    #[error("cannot save the state for --resume: {0}")]
+    Snapshot(#[from] SnapshotError),
 }
 
 impl Baker {
@@ -104,6 +109,21 @@ impl Baker {
             steps_per_frame: scene.steps_per_frame,
             frame: 0,
         })
+    }
+
+    /// Takes the bake up at the end of frame `frame`, from the state `snapshot`
+    /// a baker of the same scene had there ([`Simulator::snapshot`]).
+    pub fn resume_at(&mut self, frame: usize, snapshot: &Snapshot) -> Result<(), SnapshotError> {
+        let expected = frame as f64 * self.frame_s;
+        if (snapshot.time_s - expected).abs() > 1e-6 * self.frame_s.max(expected) {
+            return Err(SnapshotError::Mismatch {
+                saved: format!("t = {} s", snapshot.time_s),
+                expected: format!("the end of frame {frame}, t = {expected} s"),
+            });
+        }
+        self.sim.resume_from(snapshot)?;
+        self.frame = frame;
+        Ok(())
     }
 
     /// The independent checker's count on the current state.
@@ -177,12 +197,25 @@ pub fn run(
     scene: &Scene,
     frames: usize,
     cancel: &AtomicBool,
+    on_frame: impl FnMut(&Simulator, &FrameRecord) -> Result<(), BakeError>,
+) -> Result<(Vec<FrameRecord>, Option<BakeError>), BakeError> {
+    run_from(Baker::new(scene)?, frames, cancel, on_frame)
+}
+
+/// Like [`run`], from wherever `baker` is: a baker at frame 0 hands its
+/// initial state to `on_frame` first; a resumed one goes on with its next
+/// frame. The records returned are those of the frames run here.
+pub fn run_from(
+    mut baker: Baker,
+    frames: usize,
+    cancel: &AtomicBool,
     mut on_frame: impl FnMut(&Simulator, &FrameRecord) -> Result<(), BakeError>,
 ) -> Result<(Vec<FrameRecord>, Option<BakeError>), BakeError> {
-    let mut baker = Baker::new(scene)?;
-    let initial = baker.initial_check();
-    on_frame(baker.simulator(), &FrameRecord { intersections: initial, ..Default::default() })?;
-    let mut records = Vec::with_capacity(frames);
+    if baker.frame() == 0 {
+        let initial = baker.initial_check();
+        on_frame(baker.simulator(), &FrameRecord { intersections: initial, ..Default::default() })?;
+    }
+    let mut records = Vec::with_capacity(frames.saturating_sub(baker.frame()));
     while baker.frame() < frames && !cancel.load(Ordering::Relaxed) {
         match baker.advance() {
             Ok(record) => {

@@ -6,20 +6,26 @@
 //! materials.mtl        one material per garment part (+ textures/ when used)
 //! <garment>.pc2        the garment's point cache (Blender's Mesh Cache modifier)
 //! summary.json         speed, solver effort, strain, contacts (see BakeSummary)
+//! .resume/             while the bake is unfinished: what `--resume` needs
+//!                      ([`super::resume`])
 //! ```
 //!
-//! Every file is written atomically, so an interrupted bake leaves only whole
-//! files.
+//! Every file is written atomically, and frames are streamed to disk as they
+//! are finished, so an interrupted bake leaves only whole files and loses no
+//! finished frame.
 
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
+use super::FrameRecord;
+use super::resume::{Checkpoint, ResumeError, ResumeLog};
 use super::summary::BakeSummary;
 use crate::io::atomic::{WriteError, write_file};
 use crate::io::obj::{ObjObject, write_obj};
-use crate::io::pc2::{PointCache, write_pc2};
+use crate::io::pc2::Pc2Stream;
 use crate::scene::Scene;
+use crate::sim::snapshot::Snapshot;
 
 /// Name of the material library in the bake folder.
 const MTL_NAME: &str = "materials.mtl";
@@ -28,8 +34,10 @@ const MTL_NAME: &str = "materials.mtl";
 pub struct BakeFolder<'a> {
     dir: PathBuf,
     scene: &'a Scene,
-    /// Per garment, every written frame's positions (f32), for the point caches.
-    caches: Vec<Vec<Vec<[f32; 3]>>>,
+    /// The working files (`.resume/`).
+    log: ResumeLog,
+    /// Per garment, its point cache so far.
+    caches: Vec<Pc2Stream>,
 }
 
 impl<'a> BakeFolder<'a> {
@@ -41,9 +49,39 @@ impl<'a> BakeFolder<'a> {
                 std::io::Error::new(std::io::ErrorKind::NotADirectory, "a file is in the way of the output folder");
             return Err(WriteError { path: dir.to_owned(), source });
         }
-        let folder = BakeFolder { dir: dir.to_owned(), scene, caches: vec![Vec::new(); scene.garments.len()] };
+        let log = ResumeLog::create(dir)?;
+        let mut caches = Vec::with_capacity(scene.garments.len());
+        for g in &scene.garments {
+            let path = log.cache_path(&g.name);
+            let stream =
+                Pc2Stream::create(&path, g.mesh.vertex_count()).map_err(|source| WriteError { path, source })?;
+            caches.push(stream);
+        }
+        let folder = BakeFolder { dir: dir.to_owned(), scene, log, caches };
         folder.write_materials()?;
         Ok(folder)
+    }
+
+    /// Takes up the unfinished bake of `scene` in `dir` after its last
+    /// checkpoint (whose scene must have `fingerprint`): returns the folder,
+    /// ready for the next frame, the checkpoint and the finished frames'
+    /// records. Temporary files a kill left behind are removed.
+    pub fn reopen(
+        dir: &Path,
+        scene: &'a Scene,
+        fingerprint: u32,
+    ) -> Result<(Self, Checkpoint, Vec<FrameRecord>), ResumeError> {
+        let resumed = ResumeLog::reopen(dir, fingerprint)?;
+        let samples = resumed.checkpoint.frame + 1;
+        let mut caches = Vec::with_capacity(scene.garments.len());
+        for g in &scene.garments {
+            let path = resumed.log.cache_path(&g.name);
+            let stream = Pc2Stream::reopen(&path, g.mesh.vertex_count(), samples)
+                .map_err(|e| ResumeError::Damaged { path, problem: e.to_string() })?;
+            caches.push(stream);
+        }
+        remove_temporaries(dir);
+        Ok((BakeFolder { dir: dir.to_owned(), scene, log: resumed.log, caches }, resumed.checkpoint, resumed.records))
     }
 
     fn write_materials(&self) -> Result<(), WriteError> {
@@ -76,14 +114,14 @@ impl<'a> BakeFolder<'a> {
     }
 
     /// Writes `frame_NNNN.obj` from the cloth's current `positions` (all garments
-    /// concatenated) and keeps them for the point caches.
+    /// concatenated) and appends them to the point caches.
     pub fn write_frame(&mut self, frame: usize, time_s: f64, positions: &[Vector3<f64>]) -> Result<(), WriteError> {
         let mut offset = 0;
         let mut objects = Vec::with_capacity(self.scene.garments.len());
         for (g, cache) in self.scene.garments.iter().zip(&mut self.caches) {
             let own = &positions[offset..offset + g.mesh.vertex_count()];
             offset += own.len();
-            cache.push(own.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect());
+            cache.append(own).map_err(|source| WriteError { path: self.log.cache_path(&g.name), source })?;
             objects.push(ObjObject {
                 name: &g.name,
                 positions: own,
@@ -96,13 +134,51 @@ impl<'a> BakeFolder<'a> {
         write_file(&self.dir.join(format!("frame_{frame:04}.obj")), |w| write_obj(w, &header, Some(MTL_NAME), &objects))
     }
 
-    /// Writes each garment's point cache and the summary.
+    /// Marks `frame`, just written, finished for `--resume`: appends its
+    /// `record` (none for frame 0), puts the point caches on disk and writes
+    /// the checkpoint with the simulation's `snapshot`.
+    pub fn commit(
+        &mut self,
+        frame: usize,
+        record: Option<&FrameRecord>,
+        fingerprint: u32,
+        snapshot: Snapshot,
+    ) -> Result<(), WriteError> {
+        if let Some(record) = record {
+            self.log.append_record(record)?;
+        }
+        for (g, cache) in self.scene.garments.iter().zip(&self.caches) {
+            cache.sync().map_err(|source| WriteError { path: self.log.cache_path(&g.name), source })?;
+        }
+        self.log.commit(frame, fingerprint, snapshot)
+    }
+
+    /// Writes each garment's point cache and the summary. A complete bake's
+    /// working files are removed; an unfinished one keeps them for `--resume`.
     pub fn finish(self, summary: &BakeSummary) -> Result<(), WriteError> {
-        for (g, samples) in self.scene.garments.iter().zip(self.caches) {
-            let cache = PointCache { start_frame: 0.0, sample_rate: 1.0, points: g.mesh.vertex_count(), samples };
-            write_file(&self.dir.join(format!("{}.pc2", g.name)), |w| write_pc2(w, &cache))?;
+        for (g, cache) in self.scene.garments.iter().zip(&self.caches) {
+            cache.publish(&self.dir.join(format!("{}.pc2", g.name)))?;
         }
         let json = serde_json::to_string_pretty(summary).unwrap_or_default();
-        write_file(&self.dir.join("summary.json"), |w| std::io::Write::write_all(w, json.as_bytes()))
+        write_file(&self.dir.join("summary.json"), |w| std::io::Write::write_all(w, json.as_bytes()))?;
+        if summary.complete { self.log.remove() } else { Ok(()) }
+    }
+
+    /// Stops writing: the frames written stay, the working files go.
+    pub fn abandon(self) -> Result<(), WriteError> {
+        self.log.remove()
+    }
+}
+
+/// Removes the hidden temporary files (`.name.partial`) that a kill in the
+/// middle of an atomic write leaves in `dir`.
+fn remove_temporaries(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        if name.starts_with('.') && name.ends_with(".partial") {
+            let _ = std::fs::remove_file(entry.path());
+        }
     }
 }

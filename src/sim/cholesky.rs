@@ -77,6 +77,14 @@ pub enum CholeskyError {
     /// The filtered matrix is not numerically positive definite.
     #[error("the system matrix is not positive definite")]
     NotPositiveDefinite,
+    /// A saved factor ([`FactorState`]) was made for another system.
+    #[error("a saved factor of {saved} blocks does not fit this system of {expected}")]
+    SavedStateMismatch {
+        /// Blocks in the saved state.
+        saved: usize,
+        /// Blocks of this system.
+        expected: usize,
+    },
 }
 
 /// Where each scalar entry of the lower triangle comes from: block slot `slot`
@@ -422,6 +430,67 @@ impl LaggedCholesky {
             Factor::Single(single) => single.apply(&self.symbolic, r, z),
             Factor::Double(double) => double.apply(&self.symbolic, r, z),
         }
+    }
+}
+
+/// What a [`LaggedCholesky`] carries from solve to solve, as plain data: the
+/// blocks its factor was built from (the factor follows from them exactly),
+/// its precision and its schedule. Restoring it makes the next solves what
+/// they would have been ([`LaggedCholesky::restore`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FactorState {
+    /// The filtered, compensated blocks of the last factor (row-major 3×3),
+    /// one per stored slot of the pattern.
+    pub filtered: Vec<[f64; 9]>,
+    /// Whether factors are built in double precision.
+    pub double_precision: bool,
+    /// Whether a factor of `filtered` is in use.
+    pub current: bool,
+    /// Solves started so far.
+    pub solves: u64,
+    /// The solve at which a stale factor last failed.
+    pub stale_failed_at: Option<u64>,
+}
+
+impl LaggedCholesky {
+    /// Its state, to be restored later with [`Self::restore`].
+    pub fn state(&self) -> FactorState {
+        FactorState {
+            filtered: self.filtered.iter().map(|m| std::array::from_fn(|k| m[(k / 3, k % 3)])).collect(),
+            double_precision: !self.is_single_precision(),
+            current: self.current,
+            solves: self.solves,
+            stale_failed_at: self.stale_failed_at,
+        }
+    }
+
+    /// Returns to `state` (taken from a factor of the same pattern),
+    /// rebuilding its factor from the saved blocks: the same arithmetic as
+    /// when it was first built, so the same factor to the bit.
+    pub fn restore(&mut self, state: &FactorState) -> Result<(), CholeskyError> {
+        if state.filtered.len() != self.filtered.len() {
+            return Err(CholeskyError::SavedStateMismatch {
+                saved: state.filtered.len(),
+                expected: self.filtered.len(),
+            });
+        }
+        for (block, saved) in self.filtered.iter_mut().zip(&state.filtered) {
+            *block = Matrix3::from_row_slice(saved);
+        }
+        if state.double_precision {
+            self.use_double_precision();
+        } else {
+            self.numeric = Factor::Single(Numeric::new(&self.symbolic, &self.lower));
+        }
+        (self.current, self.solves, self.stale_failed_at) = (state.current, state.solves, state.stale_failed_at);
+        if self.current {
+            let (symbolic, lower, filtered) = (&*self.symbolic, &self.lower, &self.filtered);
+            match &mut self.numeric {
+                Factor::Single(single) => single.factor(symbolic, lower, filtered)?,
+                Factor::Double(double) => double.factor(symbolic, lower, filtered)?,
+            }
+        }
+        Ok(())
     }
 }
 

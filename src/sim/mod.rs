@@ -20,6 +20,7 @@ pub mod motion;
 pub mod multigrid;
 pub mod parallel;
 pub mod pcg;
+pub mod snapshot;
 pub mod sparse;
 pub mod step;
 pub mod tuning;

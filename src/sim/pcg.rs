@@ -14,7 +14,7 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use super::cholesky::{CholeskyError, LaggedCholesky, STALE_BUDGET};
+use super::cholesky::{CholeskyError, FactorState, LaggedCholesky, STALE_BUDGET};
 use super::multigrid::Multigrid;
 use super::parallel::{self, CHUNK, for_each_indexed as par_each};
 use super::sparse::BlockPattern;
@@ -100,6 +100,24 @@ impl Preconditioner {
             PreconditionerKind::Multigrid => Preconditioner::Multigrid(Box::new(Multigrid::new(pattern, edges))),
             PreconditionerKind::Cholesky => Preconditioner::Cholesky(Box::new(LaggedCholesky::new(pattern, edges)?)),
         })
+    }
+
+    /// What it carries from solve to solve: a kept factor's state; block
+    /// Jacobi and multigrid (rebuilt for every solve) carry nothing.
+    pub fn state(&self) -> Option<FactorState> {
+        match self {
+            Preconditioner::Cholesky(cholesky) => Some(cholesky.state()),
+            Preconditioner::BlockJacobi | Preconditioner::Multigrid(_) => None,
+        }
+    }
+
+    /// Returns a kept factor to `state` (see [`LaggedCholesky::restore`]);
+    /// nothing to do for the others.
+    pub fn restore(&mut self, state: &FactorState) -> Result<(), CholeskyError> {
+        match self {
+            Preconditioner::Cholesky(cholesky) => cholesky.restore(state),
+            Preconditioner::BlockJacobi | Preconditioner::Multigrid(_) => Ok(()),
+        }
     }
 
     /// Solves `A x = b` under `constraints` like [`solve`], preparing the

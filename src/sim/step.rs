@@ -51,6 +51,7 @@ use super::motion::Placement;
 use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
 use super::pcg::{Constraint, FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner};
+use super::snapshot::{Snapshot, SnapshotError, from_arrays, to_arrays};
 use super::tuning::Ramp;
 
 /// No collider (in per-particle collider indices).
@@ -159,7 +160,7 @@ pub enum StepError {
 }
 
 /// Wall time spent in each stage of a step (or summed over steps).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StageTimings {
     /// Spring forces and blocks.
     pub springs: Duration,
@@ -641,6 +642,55 @@ impl Simulator {
             pipeline.restore_memory(memory);
         }
         self.ramp.clone_from(&checkpoint.ramp);
+    }
+
+    /// Its whole state between steps, for a bake to go on later exactly
+    /// where it is now ([`super::snapshot`]). Refused while a fabric change
+    /// is being blended in.
+    pub fn snapshot(&self) -> Result<Snapshot, SnapshotError> {
+        if self.ramp.is_some() {
+            return Err(SnapshotError::TuningInProgress);
+        }
+        let memory = self.collision.as_ref().map(|pipeline| {
+            let mut memory = CollisionMemory::default();
+            pipeline.save_memory(&mut memory);
+            memory.entries()
+        });
+        let mut warm_start = to_arrays(&self.ws.velocity_change);
+        warm_start.resize(self.x.len(), [0.0; 3]);
+        Ok(Snapshot {
+            time_s: self.time,
+            positions: to_arrays(&self.x),
+            velocities: to_arrays(&self.v),
+            resting_on: self.resting_on.clone(),
+            released: self.released.clone(),
+            normal_force_n: self.normal_force.clone(),
+            warm_start,
+            contact_influence: memory.unwrap_or_default(),
+            factor: self.preconditioner.state(),
+        })
+    }
+
+    /// Puts this simulator (built from the same scene) in the state of
+    /// `snapshot`: the steps after it are bit-identical to those the
+    /// snapshotted simulator would have taken.
+    pub fn resume_from(&mut self, snapshot: &Snapshot) -> Result<(), SnapshotError> {
+        let keeps_factor = matches!(self.preconditioner, Preconditioner::Cholesky(_));
+        snapshot.check(self.x.len(), self.colliders.len(), keeps_factor)?;
+        if let Some(factor) = &snapshot.factor {
+            self.preconditioner.restore(factor)?;
+        }
+        self.time = snapshot.time_s;
+        from_arrays(&snapshot.positions, &mut self.x);
+        from_arrays(&snapshot.velocities, &mut self.v);
+        from_arrays(&snapshot.warm_start, &mut self.ws.velocity_change);
+        self.resting_on.clone_from(&snapshot.resting_on);
+        self.released.clone_from(&snapshot.released);
+        self.normal_force.clone_from(&snapshot.normal_force_n);
+        if let Some(pipeline) = &mut self.collision {
+            pipeline.restore_memory(&CollisionMemory::from_entries(&snapshot.contact_influence));
+        }
+        Ok(())
     }
 
     /// Where pin `k` must be at time `t`, m.

@@ -120,6 +120,21 @@ pub type PassHook<'a> = &'a mut dyn FnMut(PassState) -> bool;
 #[derive(Clone, Debug, Default)]
 pub struct CollisionMemory(HashMap<[u32; 5], (f64, bool)>);
 
+impl CollisionMemory {
+    /// Every remembered contact (its feature key), its influence (eq. 16)
+    /// and whether the last response pass saw it, in key order.
+    pub fn entries(&self) -> Vec<([u32; 5], f64, bool)> {
+        let mut entries: Vec<_> = self.0.iter().map(|(&key, &(influence, seen))| (key, influence, seen)).collect();
+        entries.sort_unstable_by_key(|e| e.0);
+        entries
+    }
+
+    /// The memory holding `entries` (as [`Self::entries`] lists them).
+    pub fn from_entries(entries: &[([u32; 5], f64, bool)]) -> Self {
+        CollisionMemory(entries.iter().map(|&(key, influence, seen)| (key, (influence, seen))).collect())
+    }
+}
+
 /// What collision processing did in one step.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CollisionReport {
