@@ -382,10 +382,19 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
     let flag = cancel.clone();
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).map_err(|e| Failure::Internal(e.to_string()))?;
 
+    let again = || format!("`drape bake {} --out {} --resume` goes on from there", path.display(), out.display());
     let mut baker = Baker::new(&scene).map_err(input)?;
     let fingerprint = resume::fingerprint(&scene, baker.simulator());
     let (mut folder, mut records) = if resume {
         let (folder, checkpoint, records) = BakeFolder::reopen(out, &scene, fingerprint).map_err(input)?;
+        if checkpoint.frame > frames {
+            let held = format!(
+                "{} holds {} finished frames, more than the {frames} asked for",
+                out.display(),
+                checkpoint.frame
+            );
+            return Err(input(format!("{held}: resume with --frames {} or more", checkpoint.frame)));
+        }
         baker
             .resume_at(checkpoint.frame, &checkpoint.snapshot)
             .map_err(|source| input(ResumeError::State { dir: out.to_owned(), source }))?;
@@ -410,7 +419,8 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
         Ok(())
     })
     .map_err(|e| match e {
-        BakeError::Start(_) | BakeError::Write(_) => input(e),
+        BakeError::Start(_) => input(e),
+        BakeError::Write(_) => input(format!("{e}\nthe finished frames are kept in {}; {}", out.display(), again())),
         BakeError::Step { .. } | BakeError::Snapshot(_) => Failure::Internal(e.to_string()),
     })?;
     bar.finish_and_clear();
@@ -425,13 +435,13 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
     let summary = BakeSummary::new(&scene, &records, frames, stopped);
     folder.finish(&summary).map_err(input)?;
     print_bake_summary(&summary, &scene, out);
-    let again = format!("`drape bake {} --out {} --resume` goes on from there", path.display(), out.display());
     match (failure, cancelled) {
         (Some(e), _) => Err(Failure::Internal(format!("{e} (frames before it are in {})", out.display()))),
         (None, true) => Err(Failure::Cancelled(format!(
-            "cancelled: {} whole frames kept in {}; {again}",
+            "cancelled: {} whole frames kept in {}; {}",
             records.len() + 1,
-            out.display()
+            out.display(),
+            again()
         ))),
         (None, false) => Ok(()),
     }
@@ -709,7 +719,7 @@ fn run_import_motion(
     let count = frames.len();
     let cache = MotionCache {
         triangles: body.mesh.triangles.clone(),
-        animation: VertexAnimation { fps, start_s: 0.0, frames, cycle },
+        animation: VertexAnimation { fps, start_s: 0.0, frames, cycle, lead_in: 0 },
     };
     write_motion_cache(out, &cache).map_err(input)?;
     // Read it back as a scene would, and time a frame's load (a copy).
@@ -873,8 +883,24 @@ fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> 
             drape::io::atomic::write_file(&path, |w| std::io::Write::write_all(w, table.as_bytes())).map_err(input)?;
         }
     }
+    if suite == bench::Suite::Soak {
+        run_soak(frames, out)?;
+    }
     if let Some(dir) = out {
         println!("wrote {}", dir.display());
+    }
+    Ok(())
+}
+
+/// The soak benchmark on `skirt_walk_loop`: 20,000 steps, or `frames` frames.
+fn run_soak(frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {
+    let scene = load_scene(&bench::standard_scene("skirt_walk_loop"))?;
+    let steps = frames.map_or(bench::soak::SOAK_STEPS, |f| f * scene.steps_per_frame as usize);
+    let report =
+        bench::soak::run(&scene, steps, |line| eprintln!("{line}")).map_err(|e| Failure::Internal(e.to_string()))?;
+    println!("{}", report.markdown());
+    if let Some(dir) = out {
+        report.write(dir).map_err(input)?;
     }
     Ok(())
 }

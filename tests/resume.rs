@@ -193,3 +193,63 @@ fn what_cannot_be_resumed_is_a_clear_error() {
     std::fs::write(&checkpoint, &bytes).unwrap();
     refused(bake(&killed, &scene, "6", true), &killed, "checksum");
 }
+
+/// A tmpfs of `size` mounted on `dir` for the life of the guard (root only).
+struct SmallDisk(PathBuf);
+
+impl SmallDisk {
+    fn mount(dir: &Path, size: &str) -> Option<SmallDisk> {
+        std::fs::create_dir_all(dir).unwrap();
+        let mounted =
+            Command::new("mount").args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"]).arg(dir).output();
+        mounted.ok().filter(|o| o.status.success()).map(|_| SmallDisk(dir.to_owned()))
+    }
+
+    fn grow(&self, size: &str) {
+        let remount = Command::new("mount").args(["-o", &format!("remount,size={size}")]).arg(&self.0).status();
+        assert!(remount.unwrap().success());
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}
+
+#[test]
+fn a_full_disk_stops_the_bake_with_a_clear_error_and_resume_finishes_it_once_there_is_room() {
+    let out = tempfile::tempdir().unwrap();
+    let Some(disk) = SmallDisk::mount(&out.path().join("disk"), "10m") else {
+        eprintln!("skipped: mounting a small tmpfs needs root (the CI runs as root)");
+        return;
+    };
+    let (whole, full) = (out.path().join("whole"), disk.0.join("bake"));
+    let scene = repo("assets/scenes/drape_sphere.toml");
+    let bake = |dir: &Path, resume: bool| {
+        let mut args = vec!["bake", scene.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--frames", "8"];
+        if resume {
+            args.push("--resume");
+        }
+        drape(&args)
+    };
+    let stopped = bake(&full, false);
+    let stderr = String::from_utf8_lossy(&stopped.stderr);
+    assert_eq!(stopped.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("No space left on device") && stderr.contains("--resume"), "{stderr}");
+    let kept: Vec<_> = visible_files(&full).into_iter().filter(|(n, _)| n.starts_with("frame_")).collect();
+    assert!(!kept.is_empty() && kept.len() < 9, "{} frames fitted", kept.len());
+    for (name, _) in &kept {
+        read_obj(&full.join(name)).unwrap_or_else(|e| panic!("{name} is not whole: {e}"));
+    }
+
+    disk.grow("64m");
+    assert!(bake(&full, true).status.success());
+    assert!(bake(&whole, false).status.success());
+    let (a, b) = (visible_files(&whole), visible_files(&full));
+    assert_eq!(a.len(), b.len());
+    for ((name, x), (other, y)) in a.iter().zip(&b) {
+        assert_eq!(name, other);
+        assert!(name == "summary.json" || x == y, "{name} differs from the uninterrupted bake's");
+    }
+}

@@ -38,6 +38,8 @@ pub struct BakeFolder<'a> {
     log: ResumeLog,
     /// Per garment, its point cache so far.
     caches: Vec<Pc2Stream>,
+    /// Whether a checkpoint was written (a bake that can be resumed).
+    resumable: bool,
 }
 
 impl<'a> BakeFolder<'a> {
@@ -57,7 +59,7 @@ impl<'a> BakeFolder<'a> {
                 Pc2Stream::create(&path, g.mesh.vertex_count()).map_err(|source| WriteError { path, source })?;
             caches.push(stream);
         }
-        let folder = BakeFolder { dir: dir.to_owned(), scene, log, caches };
+        let folder = BakeFolder { dir: dir.to_owned(), scene, log, caches, resumable: false };
         folder.write_materials()?;
         Ok(folder)
     }
@@ -81,7 +83,8 @@ impl<'a> BakeFolder<'a> {
             caches.push(stream);
         }
         remove_temporaries(dir);
-        Ok((BakeFolder { dir: dir.to_owned(), scene, log: resumed.log, caches }, resumed.checkpoint, resumed.records))
+        let folder = BakeFolder { dir: dir.to_owned(), scene, log: resumed.log, caches, resumable: true };
+        Ok((folder, resumed.checkpoint, resumed.records))
     }
 
     fn write_materials(&self) -> Result<(), WriteError> {
@@ -150,18 +153,20 @@ impl<'a> BakeFolder<'a> {
         for (g, cache) in self.scene.garments.iter().zip(&self.caches) {
             cache.sync().map_err(|source| WriteError { path: self.log.cache_path(&g.name), source })?;
         }
-        self.log.commit(frame, fingerprint, snapshot)
+        self.log.commit(frame, fingerprint, snapshot)?;
+        self.resumable = true;
+        Ok(())
     }
 
-    /// Writes each garment's point cache and the summary. A complete bake's
-    /// working files are removed; an unfinished one keeps them for `--resume`.
+    /// Writes each garment's point cache and the summary. The working files
+    /// are removed, unless the bake is unfinished and can be resumed.
     pub fn finish(self, summary: &BakeSummary) -> Result<(), WriteError> {
         for (g, cache) in self.scene.garments.iter().zip(&self.caches) {
             cache.publish(&self.dir.join(format!("{}.pc2", g.name)))?;
         }
         let json = serde_json::to_string_pretty(summary).unwrap_or_default();
         write_file(&self.dir.join("summary.json"), |w| std::io::Write::write_all(w, json.as_bytes()))?;
-        if summary.complete { self.log.remove() } else { Ok(()) }
+        if summary.complete || !self.resumable { self.log.remove() } else { Ok(()) }
     }
 
     /// Stops writing: the frames written stay, the working files go.

@@ -142,6 +142,11 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     if crc32fast::hash(payload) != word(12) {
         return Err("its checksum does not match (the file is damaged)".into());
     }
+    decode_payload(payload)
+}
+
+/// Decodes a checkpoint's payload (the bytes after the header).
+pub fn decode_payload(payload: &[u8]) -> Result<Checkpoint, String> {
     postcard::from_bytes(payload).map_err(|e| format!("undecodable ({e})"))
 }
 

@@ -7,6 +7,7 @@
 
 use std::path::Path;
 
+use crate::bake::resume;
 use crate::io::{fbx, motion_cache, obj, pc2};
 use crate::scene::Scene;
 use crate::scene::preset::Preset;
@@ -26,17 +27,20 @@ pub enum Format {
     MotionCache,
     /// A PC2 point cache.
     Pc2,
+    /// A bake's resume checkpoint (`.resume/checkpoint.bin`).
+    Checkpoint,
 }
 
 impl Format {
     /// Every format, with the name of its fuzz target and corpus folder.
-    pub const ALL: [(Format, &'static str); 6] = [
+    pub const ALL: [(Format, &'static str); 7] = [
         (Format::Obj, "obj"),
         (Format::Fbx, "fbx"),
         (Format::Scene, "scene"),
         (Format::Preset, "preset"),
         (Format::MotionCache, "motion_cache"),
         (Format::Pc2, "pc2"),
+        (Format::Checkpoint, "checkpoint"),
     ];
 }
 
@@ -56,5 +60,18 @@ pub fn read(format: Format, bytes: &[u8]) -> Result<(), String> {
         Format::Preset => Preset::parse(text()?, ORIGIN, &toml::Table::new()).map(drop).map_err(|e| e.to_string()),
         Format::MotionCache => motion_cache::parse(bytes).map(drop),
         Format::Pc2 => pc2::read_pc2(bytes).map(drop).map_err(|e| e.to_string()),
+        Format::Checkpoint => read_checkpoint(bytes),
     }
+}
+
+/// A checkpoint read as `--resume` reads one, its state checked against a
+/// simulation of its own size. The payload is also decoded without the
+/// header and checksum, so a fuzzer's mutations reach the decoder.
+fn read_checkpoint(bytes: &[u8]) -> Result<(), String> {
+    let check = |c: resume::Checkpoint| {
+        let s = &c.snapshot;
+        s.check(s.positions.len(), 1, s.factor.is_some()).map_err(|e| e.to_string())
+    };
+    let unwrapped = resume::decode_payload(bytes).and_then(check);
+    resume::decode(bytes).and_then(check).or(unwrapped)
 }

@@ -1,0 +1,9 @@
+//! Any bytes read as a bake resume checkpoint: Ok or a clear error, never a panic.
+#![no_main]
+
+use drape::io::untrusted::{Format, read};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let _ = read(Format::Checkpoint, data);
+});
