@@ -6,6 +6,7 @@ pub mod accuracy;
 pub mod memory;
 pub mod peers;
 pub mod plots;
+pub mod soak;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -86,7 +87,11 @@ pub enum Suite {
     /// drape against Blender's cloth (`benches/peers/blender_cloth.py`, needs
     /// `bpy`) on `drape_sphere` and `drape_table`.
     Peers,
-    /// All of them.
+    /// The soak: 20,000 steps of `skirt_walk_loop` (`--frames` sets another
+    /// length), watching energy, memory and intersections over time; about
+    /// 20 minutes, so not part of `all`.
+    Soak,
+    /// All of them but the soak.
     All,
 }
 
@@ -217,7 +222,7 @@ fn cases(suite: Suite) -> Vec<Case> {
         Suite::Scaling => scaling.collect(),
         Suite::Paper => PAPER_CASES.to_vec(),
         Suite::Hard => HARD_CASES.to_vec(),
-        Suite::Accuracy | Suite::Peers => Vec::new(),
+        Suite::Accuracy | Suite::Peers | Suite::Soak => Vec::new(),
         Suite::All => PAPER_CASES
             .into_iter()
             .chain(HARD_CASES)

@@ -10,6 +10,7 @@ use plotters::prelude::*;
 
 use super::BenchResult;
 use super::accuracy::{AccuracyPoint, SceneSweep};
+use super::soak::SoakReport;
 use crate::io::atomic::{WriteError, write_file};
 
 /// Size of every chart, pixels.
@@ -248,6 +249,46 @@ pub fn strain_over_time(dir: &Path, results: &[BenchResult]) -> Result<(), PlotE
         legend(&mut chart, SeriesLabelPosition::MiddleRight)
     }
     write_chart(dir, "strain_over_time", &|root| draw(root, results), &|root| draw(root, results))
+}
+
+/// The soak over time: the cloth's energy averaged over each motion cycle
+/// (above) and the process's resident memory (below).
+pub fn soak_over_time(dir: &Path, report: &SoakReport) -> Result<(), PlotError> {
+    fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, report: &SoakReport) -> Result<(), String> {
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let (upper, lower) = root.split_vertically(SIZE.1 / 2);
+        let cycles = report.cycle_energy_j.len().max(2);
+        let energy = report.cycle_energy_j.iter().copied();
+        let (low, high) = energy.clone().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), e| (l.min(e), h.max(e)));
+        let pad = ((high - low) * 0.2).max(high.abs() * 0.02).max(1e-6);
+        let mut top = chart_builder(&upper, "Cloth energy, mean over each walk cycle", 80)
+            .build_cartesian_2d(1usize..cycles, (low - pad)..(high + pad))
+            .map_err(|e| e.to_string())?;
+        top.configure_mesh()
+            .x_desc("cycle")
+            .y_desc("kinetic + gravitational (J)")
+            .label_style(("sans-serif", LABEL_PX))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let line = energy.enumerate().map(|(k, e)| (k + 1, e));
+        top.draw_series(LineSeries::new(line, BLUE.stroke_width(2))).map_err(|e| e.to_string())?;
+        let frames = report.samples.len().max(2);
+        let most = report.samples.iter().map(|s| s.resident_mib).fold(1.0, f64::max) * 1.2;
+        let mut bottom = chart_builder(&lower, "Resident memory of the process", 80)
+            .build_cartesian_2d(1usize..frames, 0.0..most)
+            .map_err(|e| e.to_string())?;
+        bottom
+            .configure_mesh()
+            .x_desc("frame")
+            .y_desc("MiB")
+            .label_style(("sans-serif", LABEL_PX))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let memory = report.samples.iter().map(|s| (s.frame, s.resident_mib));
+        bottom.draw_series(LineSeries::new(memory, RED.stroke_width(2))).map_err(|e| e.to_string())?;
+        Ok(())
+    }
+    write_chart(dir, "soak", &|root| draw(root, report), &|root| draw(root, report))
 }
 
 /// Median ms per frame of each pipeline stage, a stacked bar per case.

@@ -146,7 +146,7 @@ pub fn parse(bytes: &[u8]) -> Result<MotionCache, String> {
     if frames.iter().flatten().any(|p| !p.iter().all(|c| c.is_finite())) {
         return Err("a vertex position is not finite".into());
     }
-    let animation = VertexAnimation { fps, start_s: 0.0, frames, cycle: flags & 1 != 0 };
+    let animation = VertexAnimation { fps, start_s: 0.0, frames, cycle: flags & 1 != 0, lead_in: 0 };
     Ok(MotionCache { triangles: triangle_list, animation })
 }
 
@@ -158,7 +158,7 @@ mod tests {
         let frames = (0..3).map(|f| vec![Vector3::new(0.0, f as f64 * 0.5, 0.0), Vector3::x(), Vector3::z()]).collect();
         MotionCache {
             triangles: vec![[0, 1, 2]],
-            animation: VertexAnimation { fps: 30.0, start_s: 0.0, frames, cycle: true },
+            animation: VertexAnimation { fps: 30.0, start_s: 0.0, frames, cycle: true, lead_in: 0 },
         }
     }
 

@@ -113,7 +113,10 @@ pub fn load_body(
 
 /// The body posed at every frame of the scene (and one past the end): from
 /// the bind pose into the motion's first pose over `blend_in_s` (eased), then
-/// the motion from `start_s` at `speed`.
+/// the motion from `start_s` at `speed`. A cycling motion is posed over one
+/// cycle only, after the blend, and repeats from there however long the
+/// scene: a cycle's last key leads to its first one frame later (cycles are
+/// exported without repeating their first pose at the end).
 fn sample(
     body: &Body,
     motion: &crate::body::motion::Motion,
@@ -121,7 +124,14 @@ fn sample(
     fps: f64,
     duration_s: f64,
 ) -> Result<VertexAnimation, BodyError> {
-    let frames = (duration_s * fps).ceil() as usize + 1;
+    let length = motion.duration_s();
+    let cycles = spec.cycle && length > 0.0;
+    let lead_in = if cycles { (spec.blend_in_s * fps).ceil() as usize } else { 0 };
+    let frames = if cycles {
+        lead_in + (((length + 1.0 / fps) / spec.speed) * fps).round().max(1.0) as usize
+    } else {
+        (duration_s * fps).ceil() as usize + 1
+    };
     let bytes = frames as f64 * body.mesh.vertex_count() as f64 * std::mem::size_of::<Vector3<f64>>() as f64;
     if bytes > MAX_SAMPLED_BYTES {
         return Err(BodyError::Invalid(format!(
@@ -131,7 +141,6 @@ fn sample(
             bytes / 1e9
         )));
     }
-    let length = motion.duration_s();
     let bind = body.bind_pose();
     let mut first = Vec::new();
     body.pose_into(motion, spec.start_s.clamp(0.0, length.max(0.0)), &mut first);
@@ -145,12 +154,12 @@ fn sample(
                 return bind.iter().zip(&first).map(|(a, b)| a * (1.0 - w) + b * w).collect();
             }
             let mut t = spec.start_s + (scene_t - spec.blend_in_s) * spec.speed;
-            if spec.cycle && length > 0.0 {
-                t = t.rem_euclid(length);
+            if cycles {
+                t = t.rem_euclid(length + 1.0 / fps);
             }
             body.pose_into(motion, t.clamp(0.0, length.max(0.0)), &mut posed);
             posed.clone()
         })
         .collect();
-    Ok(VertexAnimation { fps, start_s: 0.0, frames, cycle: false })
+    Ok(VertexAnimation { fps, start_s: 0.0, frames, cycle: cycles, lead_in })
 }

@@ -14,8 +14,11 @@ pub struct VertexAnimation {
     /// Per frame, every vertex's position in the collider's frame, m.
     pub frames: Vec<Vec<Vector3<f64>>>,
     /// Whether the motion repeats after its last frame (a cycle whose last
-    /// frame leads back to the first) instead of holding it.
+    /// frame leads back to its first) instead of holding it.
     pub cycle: bool,
+    /// Frames that play once before a cycle (the move from the bind pose
+    /// into the motion): the cycle is the frames after them.
+    pub lead_in: usize,
 }
 
 impl VertexAnimation {
@@ -32,13 +35,16 @@ impl VertexAnimation {
             return (0, 0, 0.0);
         }
         let mut f = ((t_s - self.start_s) * self.fps).max(0.0);
+        let first = self.lead_in.min(n - 1);
         if self.cycle {
-            f %= n as f64;
+            if f >= first as f64 {
+                f = first as f64 + (f - first as f64) % (n - first) as f64;
+            }
         } else if f >= (n - 1) as f64 {
             return (n - 1, n - 1, 0.0);
         }
         let i = (f.floor() as usize).min(n - 1);
-        let next = if i + 1 < n { i + 1 } else { 0 };
+        let next = if i + 1 < n { i + 1 } else { first };
         (i, next, f - i as f64)
     }
 
@@ -64,7 +70,7 @@ mod tests {
 
     fn sliding(cycle: bool) -> VertexAnimation {
         let frames = (0..3).map(|f| vec![Vector3::new(f as f64, 0.0, 0.0)]).collect();
-        VertexAnimation { fps: 10.0, start_s: 1.0, frames, cycle }
+        VertexAnimation { fps: 10.0, start_s: 1.0, frames, cycle, lead_in: 0 }
     }
 
     #[test]
@@ -81,5 +87,16 @@ mod tests {
         let a = sliding(true);
         assert!((a.position(0, 1.25).x - 1.0).abs() < 1e-12, "half way from frame 2 back to frame 0");
         assert!((a.position(0, 1.3).x - 0.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_lead_in_plays_once_and_the_cycle_after_it_repeats() {
+        let frames = (0..4).map(|f| vec![Vector3::new(f as f64, 0.0, 0.0)]).collect();
+        let a = VertexAnimation { fps: 10.0, start_s: 0.0, frames, cycle: true, lead_in: 2 };
+        assert!((a.position(0, 0.15).x - 1.5).abs() < 1e-12, "inside the lead-in");
+        assert!((a.position(0, 0.35).x - 2.5).abs() < 1e-12, "from the last frame back to the cycle's first");
+        assert_eq!(a.position(0, 0.4).x, 2.0);
+        assert_eq!(a.position(0, 0.5).x, 3.0);
+        assert_eq!(a.position(0, 10.0).x, 2.0, "never back into the lead-in");
     }
 }

@@ -430,7 +430,7 @@ mod tests {
     #[test]
     fn a_deforming_mesh_moves_each_vertex_along_its_own_samples() {
         let frames = vec![vec![Vector3::zeros(), Vector3::x()], vec![Vector3::y(), Vector3::x() * 2.0]];
-        let animation = VertexAnimation { fps: 10.0, start_s: 0.0, frames, cycle: false };
+        let animation = VertexAnimation { fps: 10.0, start_s: 0.0, frames, cycle: false, lead_in: 0 };
         let mesh = MeshCollider {
             name: "skin".into(),
             vertices: vec![Vector3::zeros(), Vector3::x()],
