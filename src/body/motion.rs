@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3};
 
 use super::curve::Curve;
-use super::skeleton::Skeleton;
+use super::skeleton::{Skeleton, same_bone_name};
 use super::transform::NodeTransform;
 
 /// The animated channels of one bone; a missing curve keeps the rest value.
@@ -106,6 +106,13 @@ impl Motion {
         m
     }
 
+    /// The channels of the bone called `bone`, or else of the one whose name
+    /// is the same without its namespace (a Mixamo motion on a plain rig).
+    fn channels(&self, bone: &str) -> Option<&BoneChannels> {
+        let exact = self.bones.get(bone);
+        exact.or_else(|| self.bones.iter().find(|(name, _)| same_bone_name(name, bone)).map(|(_, c)| c))
+    }
+
     /// Duration, s.
     pub fn duration_s(&self) -> f64 {
         (self.end_s - self.start_s).max(0.0)
@@ -135,7 +142,7 @@ impl Motion {
         for (i, bone) in skeleton.bones.iter().enumerate() {
             let parent = bone.parent.and_then(|p| world.get(p).copied()).unwrap_or_else(Matrix4::identity);
             let local = &mut locals[i];
-            let source = self.source.find(&bone.name).filter(|_| self.bones.contains_key(&bone.name));
+            let source = self.source.find(&bone.name).filter(|_| self.channels(&bone.name).is_some());
             if let Some(j) = source {
                 let turn = rotation_of(&source_now[j]) * rotation_of(&source_rest[j]).transpose();
                 let wanted = turn * rotation_of(&target_rest[i]);
@@ -146,7 +153,7 @@ impl Motion {
                 local.pre_rotation_deg = Vector3::zeros();
                 local.post_rotation_deg = Vector3::zeros();
             }
-            if let Some(channels) = self.bones.get(&bone.name).filter(|_| root_motion[i]) {
+            if let Some(channels) = self.channels(&bone.name).filter(|_| root_motion[i]) {
                 let mut moved = local.translation / scale;
                 BoneChannels::apply(&channels.translation, self.start_s + t_s, &mut moved);
                 local.translation = moved * scale;
@@ -161,7 +168,7 @@ impl Motion {
         let t = self.start_s + t_s;
         let mut locals = skeleton.rest_pose();
         for (bone, local) in skeleton.bones.iter().zip(locals.iter_mut()) {
-            let Some(channels) = self.bones.get(&bone.name) else { continue };
+            let Some(channels) = self.channels(&bone.name) else { continue };
             BoneChannels::apply(&channels.rotation, t, &mut local.rotation_deg);
             BoneChannels::apply(&channels.scaling, t, &mut local.scaling);
             BoneChannels::apply(&channels.translation, t, &mut local.translation);
@@ -176,7 +183,7 @@ impl Motion {
         let mut root = vec![false; skeleton.bones.len()];
         for (i, bone) in skeleton.bones.iter().enumerate() {
             let above = bone.parent.is_some_and(|p| moving[p]);
-            let varies = self.bones.get(&bone.name).is_some_and(BoneChannels::translation_varies);
+            let varies = self.channels(&bone.name).is_some_and(BoneChannels::translation_varies);
             moving[i] = above || varies;
             root[i] = varies && !above;
         }

@@ -22,10 +22,21 @@ pub struct Skeleton {
     pub bones: Vec<Bone>,
 }
 
+/// Whether two bone names name the same bone once their namespaces (the
+/// text up to the last `:`, as in Mixamo's `mixamorig:Hips`) are set aside.
+pub fn same_bone_name(a: &str, b: &str) -> bool {
+    fn bare(name: &str) -> &str {
+        name.rsplit(':').next().unwrap_or(name)
+    }
+    bare(a) == bare(b)
+}
+
 impl Skeleton {
-    /// Index of the bone called `name`.
+    /// Index of the bone called `name`, or else of the one whose name is
+    /// the same without its namespace (`mixamorig:Hips` is `Hips`).
     pub fn find(&self, name: &str) -> Option<usize> {
-        self.bones.iter().position(|b| b.name == name)
+        let exact = self.bones.iter().position(|b| b.name == name);
+        exact.or_else(|| self.bones.iter().position(|b| same_bone_name(&b.name, name)))
     }
 
     /// The rest local transforms.
@@ -64,5 +75,7 @@ mod tests {
         let elbow = world[1].transform_point(&Vector3::zeros().into());
         assert!((elbow.coords - Vector3::new(0.0, 1.0, 0.0)).norm() < 1e-12);
         assert_eq!(skeleton.find("elbow"), Some(1));
+        assert_eq!(skeleton.find("mixamorig:elbow"), Some(1), "a namespace is set aside");
+        assert_eq!(skeleton.find("rig:wrist"), None);
     }
 }

@@ -72,6 +72,11 @@ pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<ObjGarment, ObjError> {
         line: Some(1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count()),
         problem: "not UTF-8 text (re-save the file as UTF-8)".to_owned(),
     })?;
+    // Windows editors start UTF-8 files with a byte-order mark; left in, it
+    // would hide the first statement (often `mtllib`) from the parser.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let uncommented = without_trailing_comments(text);
+    let text = uncommented.as_ref();
     let folder = path.parent().unwrap_or(Path::new("")).to_owned();
     let options =
         tobj::LoadOptions { triangulate: false, ignore_points: true, ignore_lines: true, ..Default::default() };
@@ -82,7 +87,7 @@ pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<ObjGarment, ObjError> {
 
     let mut warnings = Vec::new();
     let materials = match materials {
-        Ok(m) => m.iter().map(|m| convert_material(m, &folder)).collect(),
+        Ok(m) => m.iter().map(|m| convert_material(m, &folder, &mut warnings)).collect(),
         Err(e) => {
             if text.lines().any(|l| l.trim_start().starts_with("mtllib")) {
                 warnings.push(format!("its material library could not be read ({e}); using default colours"));
@@ -116,12 +121,13 @@ pub struct FrameMesh {
 /// Reads one frame of an OBJ sequence (positions and faces only).
 pub fn read_frame(path: &Path) -> Result<FrameMesh, ObjError> {
     let bytes = std::fs::read(path).map_err(|source| ObjError::Read { path: path.to_owned(), source })?;
+    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&bytes);
     let options =
         tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
     let (models, _) =
-        tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, |_| Err(tobj::LoadError::OpenFileFailed))
+        tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |_| Err(tobj::LoadError::OpenFileFailed))
             .map_err(|e| {
-                let line = std::str::from_utf8(&bytes).ok().and_then(|text| locate_error(text, &e));
+                let line = std::str::from_utf8(bytes).ok().and_then(|text| locate_error(text, &e));
                 ObjError::Parse { path: path.to_owned(), line, problem: e.to_string() }
             })?;
     let mut frame = FrameMesh::default();
@@ -151,11 +157,16 @@ pub fn read_frame(path: &Path) -> Result<FrameMesh, ObjError> {
     Ok(frame)
 }
 
-fn convert_material(m: &tobj::Material, folder: &Path) -> Material {
+fn convert_material(m: &tobj::Material, folder: &Path, warnings: &mut Vec<String>) -> Material {
+    let texture = m.diffuse_texture.as_ref().map(|t| folder.join(t));
+    let found = texture.filter(|t| t.is_file());
+    if let (Some(named), None) = (&m.diffuse_texture, &found) {
+        warnings.push(format!("material '{}': its texture {named} is not there; using its colour", m.name));
+    }
     Material {
         name: m.name.clone(),
         diffuse: m.diffuse.map_or([0.8; 3], |c| c.map(|x| x as f32)),
-        diffuse_texture: m.diffuse_texture.as_ref().map(|t| folder.join(t)),
+        diffuse_texture: found,
     }
 }
 
@@ -207,15 +218,41 @@ fn assemble(models: &[tobj::Model], materials: Vec<Material>) -> TriMesh {
     mesh
 }
 
+/// `text` with the comments after data statements (`v 0 1 0 # corner`,
+/// written by hand or by some exporters) cut off, which tobj would read as
+/// data; lines stay where they were, so errors keep their line numbers.
+fn without_trailing_comments(text: &str) -> std::borrow::Cow<'_, str> {
+    const DATA: [&str; 7] = ["v", "vt", "vn", "f", "l", "p", "s"];
+    let commented =
+        |line: &str| line.contains('#') && line.split_whitespace().next().is_some_and(|t| DATA.contains(&t));
+    if !text.lines().any(commented) {
+        return text.into();
+    }
+    let lines = text.split_inclusive('\n').map(|line| match line.find('#') {
+        Some(at) if commented(line) => {
+            if line.ends_with('\n') {
+                format!("{}\n", &line[..at])
+            } else {
+                line[..at].to_owned()
+            }
+        }
+        _ => line.to_owned(),
+    });
+    lines.collect::<String>().into()
+}
+
 /// For each vertex, the index of the first `v` line with its exact
 /// coordinates: tobj numbers vertices by first use in a face, this restores
 /// the file's order (so vertex indices in scene files mean what the modelling
 /// tool shows).
 fn file_order(text: &str, positions: &[Vector3<f64>]) -> Vec<usize> {
     let mut first_line = std::collections::HashMap::new();
-    let vertex_lines = text.lines().filter_map(|l| l.trim_start().strip_prefix("v ")).enumerate();
-    for (index, rest) in vertex_lines {
-        let mut numbers = rest.split_whitespace().map(str::parse::<f64>);
+    let vertex_lines = text.lines().map(str::split_whitespace).filter_map(|mut tokens| match tokens.next() {
+        Some("v") => Some(tokens),
+        _ => None,
+    });
+    for (index, tokens) in vertex_lines.enumerate() {
+        let mut numbers = tokens.map(str::parse::<f64>);
         if let (Some(Ok(x)), Some(Ok(y)), Some(Ok(z))) = (numbers.next(), numbers.next(), numbers.next()) {
             first_line.entry([x, y, z].map(f64::to_bits)).or_insert(index);
         }
@@ -371,6 +408,7 @@ mod tests {
                     vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
                     g front\nusemtl red\nf 1/1 4/4 3/3 2/2\ng back\nf 2/5 3/8 6/7 5/6\n";
         write_temp(&dir, "cloth.mtl", "newmtl red\nKd 0.8 0.1 0.1\nmap_Kd red.png\n");
+        write_temp(&dir, "red.png", "");
         let garment = read_obj(&write_temp(&dir, "cloth.obj", text)).unwrap();
         let mesh = &garment.mesh;
         assert_eq!(mesh.vertex_count(), 6, "the shared edge is one edge");
