@@ -13,7 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use drape::bake::output::BakeFolder;
 use drape::bake::resume::{self, ResumeError};
 use drape::bake::summary::BakeSummary;
-use drape::bake::{self, BakeError, Baker};
+use drape::bake::{self, BakeError, Baker, FrameRecord};
 use drape::bench;
 use drape::bench::accuracy::ErrorMeasure;
 use drape::fabric_lab;
@@ -383,26 +383,7 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).map_err(|e| Failure::Internal(e.to_string()))?;
 
     let again = || format!("`drape bake {} --out {} --resume` goes on from there", path.display(), out.display());
-    let mut baker = Baker::new(&scene).map_err(input)?;
-    let fingerprint = resume::fingerprint(&scene, baker.simulator());
-    let (mut folder, mut records) = if resume {
-        let (folder, checkpoint, records) = BakeFolder::reopen(out, &scene, fingerprint).map_err(input)?;
-        if checkpoint.frame > frames {
-            let held = format!(
-                "{} holds {} finished frames, more than the {frames} asked for",
-                out.display(),
-                checkpoint.frame
-            );
-            return Err(input(format!("{held}: resume with --frames {} or more", checkpoint.frame)));
-        }
-        baker
-            .resume_at(checkpoint.frame, &checkpoint.snapshot)
-            .map_err(|source| input(ResumeError::State { dir: out.to_owned(), source }))?;
-        println!("resuming the bake in {} after frame {}", out.display(), checkpoint.frame);
-        (folder, records)
-    } else {
-        (BakeFolder::create(out, &scene).map_err(input)?, Vec::new())
-    };
+    let (baker, mut folder, mut records, fingerprint) = start_bake(&scene, out, frames, resume)?;
     let bar = ProgressBar::new(frames as u64).with_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} frames  {msg}  eta {eta}")
             .unwrap_or(ProgressStyle::default_bar()),
@@ -445,6 +426,33 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
         ))),
         (None, false) => Ok(()),
     }
+}
+
+/// The baker, the bake folder, the records of the frames already finished
+/// and the scene's fingerprint: at frame 0 in a new folder, or, with
+/// `resume`, after the last finished frame of the bake in `out`.
+fn start_bake<'a>(
+    scene: &'a Scene,
+    out: &Path,
+    frames: usize,
+    resume: bool,
+) -> Result<(Baker, BakeFolder<'a>, Vec<FrameRecord>, u32), Failure> {
+    let mut baker = Baker::new(scene).map_err(input)?;
+    let fingerprint = resume::fingerprint(scene, baker.simulator());
+    if !resume {
+        return Ok((baker, BakeFolder::create(out, scene).map_err(input)?, Vec::new(), fingerprint));
+    }
+    let (folder, checkpoint, records) = BakeFolder::reopen(out, scene, fingerprint).map_err(input)?;
+    if checkpoint.frame > frames {
+        let held =
+            format!("{} holds {} finished frames, more than the {frames} asked for", out.display(), checkpoint.frame);
+        return Err(input(format!("{held}: resume with --frames {} or more", checkpoint.frame)));
+    }
+    baker
+        .resume_at(checkpoint.frame, &checkpoint.snapshot)
+        .map_err(|source| input(ResumeError::State { dir: out.to_owned(), source }))?;
+    println!("resuming the bake in {} after frame {}", out.display(), checkpoint.frame);
+    Ok((baker, folder, records, fingerprint))
 }
 
 /// Prints a bake's last lines: speed, effort, strain, contacts, rollbacks.

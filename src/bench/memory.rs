@@ -1,5 +1,5 @@
-//! Peak memory of a benchmark case: the process's high-water mark of
-//! resident memory, reset before the case (Linux `/proc`; elsewhere none).
+//! Memory of a benchmark case: the process's resident memory now and its
+//! high-water mark, reset before the case (Linux `/proc`; elsewhere none).
 
 /// Resets the high-water mark of resident memory to the current use.
 pub fn reset_peak() {
@@ -10,8 +10,18 @@ pub fn reset_peak() {
 
 /// Peak resident memory since the last [`reset_peak`], MiB.
 pub fn peak_mib() -> Option<f64> {
+    status_mib("VmHWM:")
+}
+
+/// Resident memory now, MiB.
+pub fn resident_mib() -> Option<f64> {
+    status_mib("VmRSS:")
+}
+
+/// The `/proc/self/status` field `name` (a size in KiB), MiB.
+fn status_mib(name: &str) -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = status.lines().find(|l| l.starts_with(name))?;
     let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib / 1024.0)
 }

@@ -151,13 +151,6 @@ pub fn cycle_frames(scene: &Scene) -> Option<usize> {
     Some(cycling.frames.len() - cycling.lead_in.min(cycling.frames.len()))
 }
 
-/// Resident memory of this process now, MiB (0 where unknown).
-fn resident_mib() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    let kib = status.lines().find(|l| l.starts_with("VmRSS:")).and_then(|l| l.split_whitespace().nth(1));
-    kib.and_then(|k| k.parse::<f64>().ok()).map_or(0.0, |k| k / 1024.0)
-}
-
 /// Runs `scene` for `steps` solver steps (whole frames), however long its
 /// own frame range, logging progress every 500 frames. Its energy is
 /// averaged over each cycle of its body's motion (each second if none
@@ -172,7 +165,7 @@ pub fn run(scene: &Scene, steps: usize, log: impl Fn(&str)) -> Result<SoakReport
         time_s: sim.time(),
         kinetic_j: sim.kinetic_energy(),
         potential_j: potential_energy(sim),
-        resident_mib: resident_mib(),
+        resident_mib: super::memory::resident_mib().unwrap_or(0.0),
         max_strain: record.max_strain,
         problems: record.intersections.pairs() + record.intersections.penetrating_vertices,
         ms: record.timings.total().as_secs_f64() * 1e3,

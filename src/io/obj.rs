@@ -228,17 +228,14 @@ fn without_trailing_comments(text: &str) -> std::borrow::Cow<'_, str> {
     if !text.lines().any(commented) {
         return text.into();
     }
-    let lines = text.split_inclusive('\n').map(|line| match line.find('#') {
-        Some(at) if commented(line) => {
-            if line.ends_with('\n') {
-                format!("{}\n", &line[..at])
-            } else {
-                line[..at].to_owned()
-            }
+    let mut kept = String::with_capacity(text.len());
+    for line in text.split_inclusive('\n') {
+        match line.find('#').filter(|_| commented(line)) {
+            Some(at) => kept.extend([&line[..at], if line.ends_with('\n') { "\n" } else { "" }]),
+            None => kept.push_str(line),
         }
-        _ => line.to_owned(),
-    });
-    lines.collect::<String>().into()
+    }
+    kept.into()
 }
 
 /// For each vertex, the index of the first `v` line with its exact
