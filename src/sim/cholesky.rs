@@ -49,7 +49,9 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::traits::{ComplexField, RealField};
 use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
 
+use super::parallel;
 use super::pcg::Constraint;
 use super::sparse::BlockPattern;
 
@@ -59,6 +61,9 @@ pub const STALE_BUDGET: u32 = 3;
 
 /// Solves to wait after a stale factor failed before trying one again.
 pub const RETRY_STALE_AFTER: u64 = 8;
+
+/// Scalar entries gathered per parallel task.
+const GATHER_CHUNK: usize = 8192;
 
 /// Iterations per digit of the solver tolerance a fresh single-precision
 /// factor may need before the simulation switches to double-precision
@@ -97,13 +102,16 @@ struct LowerEntry {
 }
 
 /// The scalar lower triangle of a 3×3-block symmetric matrix in compressed
-/// columns, with the map from its entries back to the blocks.
+/// columns, with the map from its entries back to the blocks, in an order of
+/// its own: scalar unknown `k` of the triangle is unknown `system[k]`
+/// (`3 particle + axis`) of the system.
 #[derive(Clone, Debug)]
 struct LowerTriangle {
     dimension: usize,
     column_start: Vec<u32>,
     row_index: Vec<u32>,
     entries: Vec<LowerEntry>,
+    system: Vec<u32>,
 }
 
 impl LowerTriangle {
@@ -127,41 +135,107 @@ impl LowerTriangle {
                 column_start.push(row_index.len() as u32);
             }
         }
-        LowerTriangle { dimension: 3 * n, column_start, row_index, entries }
+        let system = (0..3 * n as u32).collect();
+        LowerTriangle { dimension: 3 * n, column_start, row_index, entries, system }
+    }
+
+    /// The same matrix with its unknowns renumbered: unknown `k` of the result
+    /// is unknown `order[k]` of this one, and `position[order[k]] = k`. The
+    /// factor is then built without a permutation of its own, which it would
+    /// otherwise apply to every matrix it factors.
+    fn reordered(&self, order: &[u32], position: &[u32]) -> Self {
+        let mut moved = Vec::with_capacity(self.entries.len());
+        for column in 0..self.dimension {
+            let range = self.column_start[column] as usize..self.column_start[column + 1] as usize;
+            for (&row, &entry) in self.row_index[range.clone()].iter().zip(&self.entries[range]) {
+                // The matrix is symmetric: an entry that lands above the
+                // diagonal is stored as its mirror, which has the same value.
+                let (a, b) = (position[row as usize], position[column]);
+                moved.push((a.min(b), a.max(b), entry));
+            }
+        }
+        moved.sort_unstable_by_key(|&(column, row, _)| (column, row));
+        let mut column_start = vec![0u32; self.dimension + 1];
+        for &(column, _, _) in &moved {
+            column_start[column as usize + 1] += 1;
+        }
+        for k in 0..self.dimension {
+            column_start[k + 1] += column_start[k];
+        }
+        LowerTriangle {
+            dimension: self.dimension,
+            column_start,
+            row_index: moved.iter().map(|&(_, row, _)| row).collect(),
+            entries: moved.iter().map(|&(_, _, entry)| entry).collect(),
+            system: order.iter().map(|&k| self.system[k as usize]).collect(),
+        }
     }
 
     fn symbolic(&self) -> SymbolicSparseColMatRef<'_, u32> {
         SymbolicSparseColMatRef::new_checked(self.dimension, self.dimension, &self.column_start, None, &self.row_index)
     }
 
+    /// The pattern of the upper triangle (the mirror of this one), as column
+    /// starts and row indices: what the analysis of a matrix in its given
+    /// order reads.
+    fn upper(&self) -> (Vec<u32>, Vec<u32>) {
+        let mut column_start = vec![0u32; self.dimension + 1];
+        for &row in &self.row_index {
+            column_start[row as usize + 1] += 1;
+        }
+        for k in 0..self.dimension {
+            column_start[k + 1] += column_start[k];
+        }
+        let mut next = column_start.clone();
+        let mut row_index = vec![0u32; self.row_index.len()];
+        for column in 0..self.dimension {
+            for &row in &self.row_index[self.column_start[column] as usize..self.column_start[column + 1] as usize] {
+                row_index[next[row as usize] as usize] = column as u32;
+                next[row as usize] += 1;
+            }
+        }
+        (column_start, row_index)
+    }
+
     /// The scalar entries of the blocks `filtered` (one per stored slot), in
     /// the triangle's order, as `T`.
     fn gather<T: Precision>(&self, filtered: &[Matrix3<f64>], values: &mut [T]) {
-        for (value, entry) in values.iter_mut().zip(&self.entries) {
+        values.par_iter_mut().zip(self.entries.par_iter()).with_min_len(GATHER_CHUNK).for_each(|(value, entry)| {
             let (c, r) = (entry.component as usize / 3, entry.component as usize % 3);
             *value = T::from_f64(filtered[entry.slot as usize][(c, r)]);
-        }
+        });
     }
 }
 
-/// Fills `filtered` (one block per stored slot of `pattern`) with the blocks
-/// of `S A S + c (I − S)`.
+/// Fills `filtered` (one block per stored slot of `pattern`, slot `s` in row
+/// `slot_rows[s]`) with the blocks of `S A S + c (I − S)`.
 fn filter_blocks(
     pattern: &BlockPattern,
+    slot_rows: &[u32],
     a: &[Matrix3<f64>],
     constraints: &[Constraint],
     filtered: &mut [Matrix3<f64>],
 ) {
-    for j in 0..pattern.rows() {
-        let filter_j = constraints[j].filter_matrix();
-        for s in pattern.row(j) {
-            let i = pattern.column(s);
-            filtered[s] = filter_j * a[s] * constraints[i].filter_matrix();
-            if i == j {
-                filtered[s] += (Matrix3::identity() - filter_j) * (a[s].trace() / 3.0);
-            }
-        }
+    parallel::for_each_indexed(filtered, |s, block| {
+        let (j, i) = (slot_rows[s] as usize, pattern.column(s));
+        *block = filtered_block(&constraints[j], &a[s], &constraints[i], i == j);
+    });
+}
+
+/// Block `a` of row constraint `row` and column constraint `column`, filtered:
+/// `S_row a S_column`, plus `(I − S_row) c` on the `diagonal`.
+fn filtered_block(row: &Constraint, a: &Matrix3<f64>, column: &Constraint, diagonal: bool) -> Matrix3<f64> {
+    if *row == Constraint::Free && *column == Constraint::Free {
+        return *a;
     }
+    let filter_row = row.filter_matrix();
+    let block = filter_row * a * column.filter_matrix();
+    if diagonal { block + (Matrix3::identity() - filter_row) * (a.trace() / 3.0) } else { block }
+}
+
+/// The row of each stored slot of `pattern`.
+fn slot_rows(pattern: &BlockPattern) -> Vec<u32> {
+    (0..pattern.rows()).flat_map(|j| pattern.row(j).map(move |_| j as u32)).collect()
 }
 
 /// Slots of `pattern` the factor keeps: the diagonal and the blocks of `couplings`.
@@ -213,15 +287,62 @@ fn spectral_norm_bound(d: &Matrix3<f64>) -> f64 {
     (columns * rows).sqrt()
 }
 
-/// Adds, for each dropped block `D`, `‖D‖₂ I` to the two diagonal blocks it
-/// couples (its slot is left as it is: the factor does not read it).
-fn compensate_dropped(pattern: &BlockPattern, dropped: &[DroppedBlock], filtered: &mut [Matrix3<f64>]) {
-    for block in dropped {
-        let bound = spectral_norm_bound(&filtered[block.slot as usize]);
-        for particle in [block.row, block.column] {
-            filtered[pattern.diagonal(particle as usize)] += Matrix3::identity() * bound;
+/// Each particle's dropped blocks, as slots, in compressed rows: a block
+/// appears under both particles it couples.
+#[derive(Clone, Debug)]
+struct DroppedByParticle {
+    start: Vec<u32>,
+    slots: Vec<u32>,
+}
+
+impl DroppedByParticle {
+    fn new(particles: usize, dropped: &[DroppedBlock]) -> Self {
+        let mut start = vec![0u32; particles + 1];
+        for block in dropped {
+            start[block.row as usize + 1] += 1;
+            start[block.column as usize + 1] += 1;
         }
+        for i in 0..particles {
+            start[i + 1] += start[i];
+        }
+        let mut next = start.clone();
+        let mut slots = vec![0u32; dropped.len() * 2];
+        for block in dropped {
+            for particle in [block.row, block.column] {
+                slots[next[particle as usize] as usize] = block.slot;
+                next[particle as usize] += 1;
+            }
+        }
+        DroppedByParticle { start, slots }
     }
+
+    fn of(&self, particle: usize) -> &[u32] {
+        &self.slots[self.start[particle] as usize..self.start[particle + 1] as usize]
+    }
+}
+
+/// Adds, for each dropped block `D`, `‖D‖₂ I` to the two diagonal blocks it
+/// couples (its slot is left as it is: the factor does not read it). `extra`
+/// is scratch space, one value per particle.
+fn compensate_dropped(
+    pattern: &BlockPattern,
+    slot_rows: &[u32],
+    dropped: &DroppedByParticle,
+    extra: &mut [f64],
+    filtered: &mut [Matrix3<f64>],
+) {
+    {
+        let filtered = &*filtered;
+        parallel::for_each_indexed(extra, |i, sum| {
+            *sum = dropped.of(i).iter().map(|&s| spectral_norm_bound(&filtered[s as usize])).sum();
+        });
+    }
+    parallel::for_each_indexed(filtered, |s, block| {
+        let row = slot_rows[s] as usize;
+        if pattern.column(s) == row {
+            *block += Matrix3::identity() * extra[row];
+        }
+    });
 }
 
 /// A floating-point type a factor can be kept in.
@@ -292,11 +413,15 @@ impl<T: Precision> Numeric<T> {
     }
 
     /// `z = M⁻¹ r` with the factor.
-    fn apply(&mut self, symbolic: &SymbolicCholesky<u32>, r: &[Vector3<f64>], z: &mut [Vector3<f64>]) {
-        for (chunk, ri) in self.rhs.chunks_exact_mut(3).zip(r) {
-            for (value, &component) in chunk.iter_mut().zip(ri.iter()) {
-                *value = T::from_f64(component);
-            }
+    fn apply(
+        &mut self,
+        symbolic: &SymbolicCholesky<u32>,
+        lower: &LowerTriangle,
+        r: &[Vector3<f64>],
+        z: &mut [Vector3<f64>],
+    ) {
+        for (value, &k) in self.rhs.iter_mut().zip(&lower.system) {
+            *value = T::from_f64(r[k as usize / 3][k as usize % 3]);
         }
         let n = self.rhs.len();
         LltRef::new(symbolic, &self.factor).solve_in_place_with_conj(
@@ -305,8 +430,8 @@ impl<T: Precision> Numeric<T> {
             Par::Seq,
             MemStack::new(&mut self.solve_scratch),
         );
-        for (zi, chunk) in z.iter_mut().zip(self.rhs.chunks_exact(3)) {
-            *zi = Vector3::new(chunk[0].to_f64(), chunk[1].to_f64(), chunk[2].to_f64());
+        for (value, &k) in self.rhs.iter().zip(&lower.system) {
+            z[k as usize / 3][k as usize % 3] = value.to_f64();
         }
     }
 
@@ -327,8 +452,12 @@ enum Factor {
 /// A Cholesky factor of the filtered system, kept across steps.
 pub struct LaggedCholesky {
     lower: LowerTriangle,
+    /// The row of each stored slot of the pattern.
+    slot_rows: Arc<[u32]>,
     /// Blocks of the system the factor leaves out, compensated on the diagonal.
-    dropped: Arc<[DroppedBlock]>,
+    dropped: Arc<DroppedByParticle>,
+    /// Each particle's compensation, scratch.
+    compensation: Vec<f64>,
     /// The filtered blocks of the last factor, one per stored slot.
     filtered: Vec<Matrix3<f64>>,
     symbolic: Arc<SymbolicCholesky<u32>>,
@@ -345,14 +474,34 @@ impl LaggedCholesky {
     /// pattern's other blocks are dropped and compensated on the diagonal.
     pub fn new(pattern: &BlockPattern, couplings: &[[u32; 2]]) -> Result<Self, CholeskyError> {
         let kept = kept_slots(pattern, couplings);
-        let lower = LowerTriangle::new(pattern, &kept);
-        let symbolic =
-            factorize_symbolic_cholesky(lower.symbolic(), Side::Lower, SymmetricOrdering::Amd, Default::default())
-                .map_err(|e| CholeskyError::Analysis(format!("{e:?}")))?;
+        let natural = LowerTriangle::new(pattern, &kept);
+        let analysis_failed = |e| CholeskyError::Analysis(format!("{e:?}"));
+        let fill_reducing =
+            factorize_symbolic_cholesky(natural.symbolic(), Side::Lower, SymmetricOrdering::Amd, Default::default())
+                .map_err(analysis_failed)?;
+        let lower = match fill_reducing.perm() {
+            Some(permutation) => {
+                let (order, position) = permutation.arrays();
+                natural.reordered(order, position)
+            }
+            None => natural,
+        };
+        // Analysed in its own order, a matrix is read as its upper triangle.
+        let (column_start, row_index) = lower.upper();
+        let (n, upper) = (lower.dimension, SymbolicSparseColMatRef::new_checked);
+        let symbolic = factorize_symbolic_cholesky(
+            upper(n, n, &column_start, None, &row_index),
+            Side::Upper,
+            SymmetricOrdering::Identity,
+            Default::default(),
+        )
+        .map_err(analysis_failed)?;
         let numeric = Factor::Single(Numeric::new(&symbolic, &lower));
         Ok(LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
-            dropped: dropped_blocks(pattern, &kept).into(),
+            slot_rows: slot_rows(pattern).into(),
+            dropped: Arc::new(DroppedByParticle::new(pattern.rows(), &dropped_blocks(pattern, &kept))),
+            compensation: vec![0.0; pattern.rows()],
             lower,
             symbolic: Arc::new(symbolic),
             numeric,
@@ -387,8 +536,8 @@ impl LaggedCholesky {
         constraints: &[Constraint],
     ) -> Result<(), CholeskyError> {
         self.current = false;
-        filter_blocks(pattern, a, constraints, &mut self.filtered);
-        compensate_dropped(pattern, &self.dropped, &mut self.filtered);
+        filter_blocks(pattern, &self.slot_rows, a, constraints, &mut self.filtered);
+        compensate_dropped(pattern, &self.slot_rows, &self.dropped, &mut self.compensation, &mut self.filtered);
         let (symbolic, lower, filtered) = (&*self.symbolic, &self.lower, &self.filtered);
         if let Factor::Single(single) = &mut self.numeric {
             if single.factor(symbolic, lower, filtered).is_ok() {
@@ -427,8 +576,8 @@ impl LaggedCholesky {
     /// `z = M⁻¹ r` with the current factor (unfiltered: the caller filters).
     pub fn apply(&mut self, r: &[Vector3<f64>], z: &mut [Vector3<f64>]) {
         match &mut self.numeric {
-            Factor::Single(single) => single.apply(&self.symbolic, r, z),
-            Factor::Double(double) => double.apply(&self.symbolic, r, z),
+            Factor::Single(single) => single.apply(&self.symbolic, &self.lower, r, z),
+            Factor::Double(double) => double.apply(&self.symbolic, &self.lower, r, z),
         }
     }
 }
@@ -499,7 +648,9 @@ impl Clone for LaggedCholesky {
         let (symbolic, lower) = (&*self.symbolic, &self.lower);
         LaggedCholesky {
             lower: lower.clone(),
+            slot_rows: Arc::clone(&self.slot_rows),
             dropped: Arc::clone(&self.dropped),
+            compensation: self.compensation.clone(),
             filtered: self.filtered.clone(),
             symbolic: Arc::clone(&self.symbolic),
             numeric: match &self.numeric {
@@ -636,6 +787,40 @@ mod tests {
         let scale = system.norm();
         assert!(excess.min() > -1e-9 * scale, "P − A has eigenvalue {:e}", excess.min());
         assert!(excess.max() > 1e-3 * scale, "the ±2 couplings were dropped");
+    }
+
+    /// The factor is analysed in the fill-reducing order it was renumbered
+    /// to, so it has exactly the fill of that order (less than the grid's own
+    /// row-by-row order has).
+    #[test]
+    fn the_renumbered_factor_has_the_fill_of_the_fill_reducing_order() {
+        let side = 16u32;
+        let at = |x: u32, y: u32| y * side + x;
+        let mut pairs = Vec::new();
+        for y in 0..side {
+            for x in 0..side {
+                let neighbours = [(1, 0), (0, 1), (1, 1)].into_iter().chain((x > 0).then_some((-1, 1)));
+                for (dx, dy) in neighbours {
+                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                    if nx < side as i64 && ny < side as i64 {
+                        pairs.push([at(x, y), at(nx as u32, ny as u32)]);
+                    }
+                }
+            }
+        }
+        let pattern = BlockPattern::new((side * side) as usize, pairs.iter().copied());
+        let natural = LowerTriangle::new(&pattern, &kept_slots(&pattern, &pairs));
+        let analyse = |pattern, side| {
+            let ordering = if side == Side::Lower { SymmetricOrdering::Amd } else { SymmetricOrdering::Identity };
+            factorize_symbolic_cholesky(pattern, side, ordering, Default::default()).unwrap().len_val()
+        };
+        let (column_start, row_index) = natural.upper();
+        let n = natural.dimension;
+        let upper = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
+        let (amd, unordered) = (analyse(natural.symbolic(), Side::Lower), analyse(upper, Side::Upper));
+        let cholesky = LaggedCholesky::new(&pattern, &pairs).unwrap();
+        assert_eq!(cholesky.symbolic.len_val(), amd);
+        assert!(amd < unordered, "AMD fills {amd} entries, the grid order {unordered}");
     }
 
     #[test]
