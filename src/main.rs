@@ -566,7 +566,7 @@ fn parse_frames(text: Option<&str>, last: usize) -> Result<std::ops::RangeInclus
 }
 
 fn run_render(source: &Path, out: &Path, request: &RenderRequest) -> Result<(), Failure> {
-    use drape::render::{Gpu, LightRig};
+    use drape::render::{Gpu, LightRig, RenderError};
     use drape::stage::baked::BakedFrames;
     use drape::stage::offscreen::{OffscreenStage, write_png};
 
@@ -592,7 +592,10 @@ fn run_render(source: &Path, out: &Path, request: &RenderRequest) -> Result<(), 
     }
     std::fs::create_dir_all(out).map_err(|e| Failure::Input(format!("cannot create {}: {e}", out.display())))?;
     let gpu = Gpu::headless().map_err(|e| Failure::Internal(e.to_string()))?;
-    let mut stage = OffscreenStage::new(&gpu, &scene, width, height, rig).map_err(input)?;
+    let mut stage = OffscreenStage::new(&gpu, &scene, width, height, rig).map_err(|e| match e {
+        RenderError::Unsupported { .. } => Failure::Internal(e.to_string()),
+        other => input(other),
+    })?;
     let mut times_ms = Vec::new();
     let mut shoot = |frame: usize, positions: &[nalgebra::Vector3<f64>], t: f64| -> Result<(), Failure> {
         let started = std::time::Instant::now();

@@ -136,7 +136,7 @@ fn switching_the_light_changes_the_viewport_image() {
     let gpu = Gpu::headless().unwrap_or_else(|e| panic!("{e}"));
     let mut ui_renderer =
         egui_wgpu::Renderer::new(&gpu.device, wgpu::TextureFormat::Rgba8Unorm, egui_wgpu::RendererOptions::default());
-    let mut viewport = Viewport::new(&gpu);
+    let mut viewport = Viewport::new(&gpu).expect("lavapipe runs the renderer");
     viewport.resolution_scale = 1.0;
     let mut h = harness(Editor::new(small_scene(dir.path())));
     wait_until(&mut h, "frame 0", |e| !e.timeline.is_empty());

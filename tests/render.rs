@@ -158,7 +158,7 @@ fn sheen_ball(gpu: &Gpu, sheen: [f32; 3]) -> RgbaImage {
         world_from_model: Mat4::IDENTITY,
         casts_shadow: true,
     };
-    let mut renderer = Renderer::new(gpu);
+    let mut renderer = Renderer::new(gpu).expect("lavapipe runs the renderer");
     renderer.set_meshes(&[mesh]);
     let rig = LightRig::parse(
         r#"name = "headlight"
@@ -335,4 +335,33 @@ fn the_scene_camera_turns_with_the_turntable_period() {
     let (start, quarter) = (stage.camera(1.0, 0.0), stage.camera(1.0, 2.0));
     assert!((quarter.yaw_deg - start.yaw_deg - 90.0).abs() < 1e-3);
     assert_eq!(start.distance_m, quarter.distance_m);
+}
+
+/// An adapter that cannot run the renderer (OpenGL, which has no reads of
+/// depth texels; or none at all) is an error that says what to install, with
+/// exit code 2 and no image: not wgpu's panic.
+#[test]
+fn an_adapter_without_the_renderers_features_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("png");
+    let scene = repo("assets/scenes/drape_sphere.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_drape"))
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "--out",
+            frames.to_str().unwrap(),
+            "--frames",
+            "0",
+            "--size",
+            "64x48",
+        ])
+        .env("WGPU_BACKEND", "gl")
+        .output()
+        .expect("the drape binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("mesa-vulkan-drivers") && !stderr.contains("panicked"), "{stderr}");
+    let written = std::fs::read_dir(&frames).map_or(0, |entries| entries.count());
+    assert_eq!(written, 0, "no image is written");
 }

@@ -6,7 +6,7 @@
 use std::sync::Arc;
 
 use super::editor::Editor;
-use crate::render::{Gpu, OrbitCamera, Renderer, TextureTarget};
+use crate::render::{Gpu, OrbitCamera, RenderError, Renderer, TextureTarget};
 use crate::stage::Stage;
 
 /// Everything the image depends on, to skip renders that would be the same.
@@ -34,18 +34,18 @@ pub struct Viewport {
 }
 
 impl Viewport {
-    /// A viewport on `gpu`.
-    pub fn new(gpu: &Gpu) -> Viewport {
+    /// A viewport on `gpu`, or why the adapter cannot render it.
+    pub fn new(gpu: &Gpu) -> Result<Viewport, RenderError> {
         let software = gpu.adapter_name.contains("llvmpipe") || gpu.adapter_name.contains("lavapipe");
-        Viewport {
+        Ok(Viewport {
             gpu: gpu.clone(),
-            renderer: Renderer::new(gpu),
+            renderer: Renderer::new(gpu)?,
             stage: None,
             target: None,
             texture: None,
             shown: None,
             resolution_scale: if software { 0.5 } else { 1.0 },
-        }
+        })
     }
 
     /// The last image rendered, read back (sRGB-encoded RGBA), if any.

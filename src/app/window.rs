@@ -17,6 +17,7 @@ use super::editor::Editor;
 use super::panels::editor_ui;
 use super::viewport::Viewport;
 use crate::render::Gpu;
+use crate::render::gpu::supported_backends;
 use crate::render::target::read_texture;
 use crate::scene::Scene;
 use crate::stage::offscreen::write_png;
@@ -146,7 +147,7 @@ impl Open {
             .with_inner_size(winit::dpi::LogicalSize::new(1440.0, 860.0));
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| AppError::Window(e.to_string()))?);
         let descriptor = wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display.clone()));
-        let instance = wgpu::Instance::new(descriptor);
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor { backends: supported_backends(), ..descriptor });
         let surface = instance.create_surface(window.clone()).map_err(|e| AppError::Graphics(e.to_string()))?;
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
@@ -168,7 +169,7 @@ impl Open {
         let context = egui::Context::default();
         let egui = egui_winit::State::new(context, egui::ViewportId::ROOT, &window, None, None, None);
         let painter = egui_wgpu::Renderer::new(&gpu.device, config.format, egui_wgpu::RendererOptions::default());
-        let viewport = Viewport::new(&gpu);
+        let viewport = Viewport::new(&gpu).map_err(|e| AppError::Graphics(e.to_string()))?;
         Ok(Open {
             window,
             surface,

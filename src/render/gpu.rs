@@ -10,6 +10,18 @@ pub enum RenderError {
          (apt-get install mesa-vulkan-drivers libvulkan1)"
     )]
     NoAdapter(String),
+    /// The adapter cannot run the renderer's shaders or pipelines.
+    #[error(
+        "the graphics adapter {adapter} cannot run drape's renderer: {problem}. drape renders with \
+         Vulkan, Metal or DirectX 12; on Linux without a GPU install Mesa's software Vulkan \
+         (apt-get install mesa-vulkan-drivers libvulkan1)"
+    )]
+    Unsupported {
+        /// The adapter's name and backend.
+        adapter: String,
+        /// What it refused.
+        problem: String,
+    },
     /// The adapter refused to create a device.
     #[error("cannot open the graphics device: {0}")]
     Device(#[from] wgpu::RequestDeviceError),
@@ -35,13 +47,24 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     /// What it runs on (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"), for reports.
     pub adapter_name: String,
+    /// The backend it runs on (Vulkan, Metal, Dx12; Gl only when asked for
+    /// with `WGPU_BACKEND`).
+    pub backend: wgpu::Backend,
+}
+
+/// The graphics APIs the renderer's shaders run on: Vulkan, Metal and DirectX
+/// 12 (their soft-shadow search reads depth texels, which OpenGL cannot), or
+/// what `WGPU_BACKEND` names.
+pub fn supported_backends() -> wgpu::Backends {
+    wgpu::Backends::PRIMARY.with_env()
 }
 
 impl Gpu {
     /// Opens a device without a window (honours `WGPU_BACKEND` and
     /// `WGPU_ADAPTER_NAME`).
     pub fn headless() -> Result<Gpu, RenderError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor { backends: supported_backends(), ..descriptor });
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             ..Default::default()
@@ -57,6 +80,32 @@ impl Gpu {
             required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
             ..Default::default()
         }))?;
-        Ok(Gpu { device, queue, adapter_name: adapter.get_info().name })
+        let info = adapter.get_info();
+        Ok(Gpu { device, queue, adapter_name: info.name, backend: info.backend })
     }
+
+    /// Runs `create` with the device's validation and internal errors
+    /// captured: a pipeline or shader the adapter cannot build becomes
+    /// [`RenderError::Unsupported`] instead of wgpu's panic.
+    pub fn validated<T>(&self, create: impl FnOnce(&wgpu::Device) -> T) -> Result<T, RenderError> {
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let internal = self.device.push_error_scope(wgpu::ErrorFilter::Internal);
+        let created = create(&self.device);
+        let internal = pollster::block_on(internal.pop());
+        match internal.or(pollster::block_on(validation.pop())) {
+            None => Ok(created),
+            Some(error) => Err(RenderError::Unsupported {
+                adapter: format!("{} ({:?})", self.adapter_name, self.backend),
+                problem: error_chain(&error),
+            }),
+        }
+    }
+}
+
+/// wgpu's multi-line error report on one line: "Validation Error: In
+/// Device::create_render_pipeline, label = 'pbr': Internal error in ...".
+fn error_chain(error: &wgpu::Error) -> String {
+    let text = error.to_string();
+    let lines = text.lines().map(str::trim).filter(|line| !line.is_empty() && *line != "Caused by:");
+    lines.collect::<Vec<_>>().join(": ")
 }

@@ -7,7 +7,7 @@ use wgpu::util::DeviceExt;
 
 use super::camera::{Bounds, OrbitCamera};
 use super::draw::{DrawMesh, Material, Vertex};
-use super::gpu::Gpu;
+use super::gpu::{Gpu, RenderError};
 use super::lights::{LightRig, MAX_LIGHTS, PlacedLight};
 use super::sheen::{MIN_SHEEN_ROUGHNESS, SHEEN_TABLE_SIZE, sheen_albedo_table};
 
@@ -229,8 +229,9 @@ fn texture_with_data(
 }
 
 impl Renderer {
-    /// Builds the pipelines and the shadow map on `gpu`.
-    pub fn new(gpu: &Gpu) -> Renderer {
+    /// Builds the pipelines and the shadow map on `gpu`, or says why its
+    /// adapter cannot ([`RenderError::Unsupported`]).
+    pub fn new(gpu: &Gpu) -> Result<Renderer, RenderError> {
         let device = &gpu.device;
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("frame"),
@@ -255,8 +256,10 @@ impl Renderer {
             entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX)],
         });
 
-        let pbr = Self::pbr_pipeline(device, &frame_layout, &object_layout);
-        let shadow = Self::shadow_pipeline(device, &shadow_layout, &object_layout);
+        let (pbr, shadow) = gpu.validated(|device| {
+            let pbr = Self::pbr_pipeline(device, &frame_layout, &object_layout);
+            (pbr, Self::shadow_pipeline(device, &shadow_layout, &object_layout))
+        })?;
 
         let shadow_map = device
             .create_texture(&wgpu::TextureDescriptor {
@@ -324,7 +327,7 @@ impl Renderer {
             layout: &shadow_layout,
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: shadow_uniforms.as_entire_binding() }],
         });
-        Renderer {
+        Ok(Renderer {
             gpu: gpu.clone(),
             pbr,
             shadow,
@@ -337,7 +340,7 @@ impl Renderer {
             base_sampler,
             white,
             meshes: Vec::new(),
-        }
+        })
     }
 
     fn pbr_pipeline(

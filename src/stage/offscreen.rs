@@ -24,7 +24,7 @@ impl OffscreenStage {
     /// Prepares `scene` for `width` × `height` images under `rig`.
     pub fn new(gpu: &Gpu, scene: &Scene, width: u32, height: u32, rig: LightRig) -> Result<Self, RenderError> {
         let stage = Stage::new(scene)?;
-        let mut renderer = Renderer::new(gpu);
+        let mut renderer = Renderer::new(gpu)?;
         renderer.set_meshes(stage.meshes());
         let target = OffscreenTarget::new(gpu, width, height);
         Ok(OffscreenStage { gpu: gpu.clone(), renderer, target, stage, rig })
