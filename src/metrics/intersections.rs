@@ -11,12 +11,15 @@
 //! are found with parry3d's point projection (parry's GJK intersection test
 //! was measured to report false hits for a triangle 2.6 mm above a 3 mm
 //! needle, so it is not used).
-
-use std::collections::HashMap;
+//!
+//! The work is spread over the cores (grid cells, mesh triangles, vertices);
+//! the counts do not depend on how.
 
 use nalgebra::{Point3, Vector3};
 use parry3d::math::Vector;
 use parry3d::shape::{Ball, Cone, ConvexPolyhedron, Cuboid, Cylinder, Shape as ParryShape};
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 
 use super::triangles::triangles_intersect;
 use crate::sim::colliders::{Collider, Shape};
@@ -87,14 +90,13 @@ impl Checker {
             let pose = collider.world_from_local(t);
             if let Solid::Ground = solid {
                 let below = |v: &u32| pose.inverse_transform_point(&Point3::from(positions[*v as usize])).y <= 0.0;
-                found.collider_pairs += self.triangles.iter().filter(|tri| tri.iter().any(below)).count() as u32;
+                found.collider_pairs += self.triangles.par_iter().filter(|tri| tri.iter().any(below)).count() as u32;
             }
-            for p in positions {
+            let inside = |p: &Vector3<f64>| {
                 let local = pose.inverse_transform_point(&Point3::from(*p)).coords;
-                if solid.depth(&local) > PENETRATION_DEPTH {
-                    found.penetrating_vertices += 1;
-                }
-            }
+                solid.depth(&local) > PENETRATION_DEPTH
+            };
+            found.penetrating_vertices += positions.par_iter().filter(|p| inside(p)).count() as u32;
         }
         for mesh in &self.surfaces {
             found.collider_pairs += self.mesh_pairs(positions, mesh, t);
@@ -105,15 +107,12 @@ impl Checker {
     /// Intersecting pairs of cloth triangles that share no vertex.
     fn cloth_pairs(&self, positions: &[Vector3<f64>]) -> u32 {
         let corners = |t: usize| self.triangles[t].map(|v| positions[v as usize]);
-        let mut count = 0;
         let adjacent = |a: &[u32; 3], b: &[u32; 3]| a.iter().any(|v| b.contains(v));
-        for_each_overlapping_pair(&self.boxes(positions, &self.triangles), |i, j| {
+        let intersecting = overlapping_pairs_where(&self.boxes(positions, &self.triangles), |i, j| {
             let (a, b) = (&self.triangles[i], &self.triangles[j]);
-            if !adjacent(a, b) && triangles_intersect(&corners(i), &corners(j)) {
-                count += 1;
-            }
+            !adjacent(a, b) && triangles_intersect(&corners(i), &corners(j))
         });
-        count
+        intersecting.len() as u32
     }
 
     /// Cloth triangles intersecting a mesh collider's triangles.
@@ -121,14 +120,28 @@ impl Checker {
         let world = mesh.world_vertices(t);
         let cloth_boxes = self.boxes(positions, &self.triangles);
         let mesh_boxes = self.boxes(&world, &mesh.triangles);
-        let mut hit = vec![false; self.triangles.len()];
-        for_each_overlapping_pair_between(&cloth_boxes, &mesh_boxes, |c, m| {
-            if !hit[c] {
-                let cloth = self.triangles[c].map(|v| positions[v as usize]);
-                hit[c] = triangles_intersect(&cloth, &mesh.triangles[m].map(|v| world[v as usize]));
-            }
-        });
-        hit.iter().filter(|h| **h).count() as u32
+        let Some(grid) = BoxGrid::new(&cloth_boxes) else { return 0 };
+        // Each chunk of the mesh marks the cloth triangles it cuts; a cloth
+        // triangle counts once however many chunks cut it.
+        let hit = (0..mesh_boxes.len())
+            .into_par_iter()
+            .step_by(MESH_CHUNK)
+            .map(|first| {
+                let mut hit = vec![false; cloth_boxes.len()];
+                let chunk = first..(first + MESH_CHUNK).min(mesh_boxes.len());
+                for_each_overlapping_pair_between(&grid, &cloth_boxes, &mesh_boxes[chunk], |c, m| {
+                    if !hit[c] {
+                        let cloth = self.triangles[c].map(|v| positions[v as usize]);
+                        hit[c] = triangles_intersect(&cloth, &mesh.triangles[first + m].map(|v| world[v as usize]));
+                    }
+                });
+                hit
+            })
+            .reduce_with(|mut a, b| {
+                a.iter_mut().zip(b).for_each(|(a, b)| *a |= b);
+                a
+            });
+        hit.map_or(0, |hit| hit.iter().filter(|h| **h).count() as u32)
     }
 
     /// Axis-aligned boxes of `triangles` (indices into `positions`).
@@ -279,25 +292,40 @@ fn overlap(a: &BoxBounds, b: &BoxBounds) -> bool {
     (0..3).all(|d| a.0[d] <= b.1[d] && b.0[d] <= a.1[d])
 }
 
+/// Mesh triangles per parallel task of the cloth-against-mesh test.
+const MESH_CHUNK: usize = 1024;
+
+/// The lowest and highest grid cell a box reaches into.
+type CellRange = ([i64; 3], [i64; 3]);
+
 /// A uniform grid over boxes whose cells are about twice an average box:
 /// each cell lists the boxes that reach into it.
 struct BoxGrid {
     cell: f64,
-    members: HashMap<[i64; 3], Vec<u32>>,
+    /// The cells each box reaches into.
+    ranges: Vec<CellRange>,
+    members: FxHashMap<[i64; 3], Vec<u32>>,
+    /// The bounds of all the boxes, and their cells.
+    all: BoxBounds,
+    all_cells: CellRange,
 }
 
 impl BoxGrid {
-    /// The grid of `boxes` (not empty).
-    fn new(boxes: &[BoxBounds]) -> BoxGrid {
-        let mean_size = boxes.iter().map(|(lo, hi)| (hi - lo).amax()).sum::<f64>() / boxes.len().max(1) as f64;
-        let mut grid = BoxGrid { cell: mean_size.max(1e-6) * 2.0, members: HashMap::new() };
-        for (i, b) in boxes.iter().enumerate() {
-            let (lo, hi) = grid.range(b);
+    /// The grid of `boxes` (None when there are none).
+    fn new(boxes: &[BoxBounds]) -> Option<BoxGrid> {
+        let all = boxes.iter().copied().reduce(|(lo, hi), (l, h)| (lo.inf(&l), hi.sup(&h)))?;
+        let mean_size = boxes.iter().map(|(lo, hi)| (hi - lo).amax()).sum::<f64>() / boxes.len() as f64;
+        let cell = mean_size.max(1e-6) * 2.0;
+        let mut grid =
+            BoxGrid { cell, ranges: Vec::new(), members: FxHashMap::default(), all, all_cells: ([0; 3], [0; 3]) };
+        grid.all_cells = grid.range(&all);
+        grid.ranges = boxes.par_iter().map(|b| grid.range(b)).collect();
+        for (i, &(lo, hi)) in grid.ranges.iter().enumerate() {
             for cell in cells(lo, hi) {
                 grid.members.entry(cell).or_default().push(i as u32);
             }
         }
-        grid
+        Some(grid)
     }
 
     /// The lowest and highest cell a box reaches into.
@@ -317,35 +345,38 @@ fn cells(lo: [i64; 3], hi: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
     (lo[0]..=hi[0]).flat_map(move |x| (lo[1]..=hi[1]).flat_map(move |y| (lo[2]..=hi[2]).map(move |z| [x, y, z])))
 }
 
-/// Calls `f(i, j)` (i < j) once for every pair of boxes that overlap.
-fn for_each_overlapping_pair(boxes: &[BoxBounds], mut f: impl FnMut(usize, usize)) {
-    if boxes.is_empty() {
-        return;
-    }
-    let grid = BoxGrid::new(boxes);
+/// Every pair `(i, j)` (i < j) of overlapping boxes for which `keep(i, j)`
+/// holds, each once, in an order that does not depend on the thread count.
+fn overlapping_pairs_where(boxes: &[BoxBounds], keep: impl Fn(usize, usize) -> bool + Sync) -> Vec<(usize, usize)> {
+    let Some(grid) = BoxGrid::new(boxes) else { return Vec::new() };
     let mut occupied: Vec<(&[i64; 3], &Vec<u32>)> = grid.members.iter().collect();
     occupied.sort_unstable_by_key(|(c, _)| **c);
-    for (cell, members) in occupied {
-        for (k, &i) in members.iter().enumerate() {
-            for &j in &members[k + 1..] {
-                let (a, b) = (&boxes[i as usize], &boxes[j as usize]);
-                // Report each pair only in the lowest cell both boxes occupy.
-                let (ra, rb) = (grid.range(a), grid.range(b));
-                if overlap(a, b) && [0, 1, 2].map(|d| ra.0[d].max(rb.0[d])) == *cell {
-                    f(i.min(j) as usize, i.max(j) as usize);
-                }
-            }
-        }
-    }
+    let ranges = &grid.ranges;
+    occupied
+        .par_iter()
+        .flat_map_iter(|&(cell, members)| {
+            let keep = &keep;
+            members.iter().enumerate().flat_map(move |(k, &i)| {
+                members[k + 1..].iter().filter_map(move |&j| {
+                    let (i, j) = (i.min(j) as usize, i.max(j) as usize);
+                    // Each pair is reported only in the lowest cell both boxes occupy.
+                    let lowest = [0, 1, 2].map(|d| ranges[i].0[d].max(ranges[j].0[d]));
+                    (lowest == *cell && overlap(&boxes[i], &boxes[j]) && keep(i, j)).then_some((i, j))
+                })
+            })
+        })
+        .collect()
 }
 
-/// Calls `f(i, j)` once for every box `i` of `first` overlapping a box `j`
-/// of `second` (pairs within one set are never formed), through a grid over
-/// `first` alone.
-fn for_each_overlapping_pair_between(first: &[BoxBounds], second: &[BoxBounds], mut f: impl FnMut(usize, usize)) {
-    let Some(all) = first.iter().copied().reduce(|(lo, hi), (l, h)| (lo.inf(&l), hi.sup(&h))) else { return };
-    let grid = BoxGrid::new(first);
-    let (all_lo, all_hi) = grid.range(&all);
+/// Calls `f(i, j)` once for every box `i` of `first` (gridded in `grid`)
+/// overlapping a box `j` of `second` (pairs within one set are never formed).
+fn for_each_overlapping_pair_between(
+    grid: &BoxGrid,
+    first: &[BoxBounds],
+    second: &[BoxBounds],
+    mut f: impl FnMut(usize, usize),
+) {
+    let (all, (all_lo, all_hi)) = (grid.all, grid.all_cells);
     // The last box of `second` each box of `first` was offered to, so that a
     // pair sharing several cells is reported once.
     let mut offered = vec![usize::MAX; first.len()];
@@ -392,7 +423,8 @@ mod tests {
             }
         }
         let mut found = Vec::new();
-        for_each_overlapping_pair_between(&first, &second, |i, j| found.push((i, j)));
+        let grid = BoxGrid::new(&first).unwrap();
+        for_each_overlapping_pair_between(&grid, &first, &second, |i, j| found.push((i, j)));
         let reported = found.len();
         found.sort_unstable();
         found.dedup();
@@ -449,6 +481,38 @@ mod tests {
         assert_eq!(found.penetrating_vertices, 81, "every vertex is 10 cm below the ground");
     }
 
+    /// A mesh collider of several parallel chunks (a wall of 48 × 48 quads)
+    /// standing through a flat cloth: the cloth triangles it cuts are counted
+    /// once each, exactly as a test of every pair counts them.
+    #[test]
+    fn cloth_cut_by_a_large_mesh_counts_each_cut_triangle_once() {
+        let cloth = generate::grid(1.0, 20);
+        let wall = generate::grid(0.8, 49);
+        let upright = |p: &Vector3<f64>| Vector3::new(p.x + 0.013, p.z, 0.0371);
+        let mesh = MeshCollider {
+            name: "wall".into(),
+            vertices: wall.positions.iter().map(upright).collect(),
+            triangles: wall.triangles.clone(),
+            placement: Placement { rest_pose: Isometry3::identity(), motion: None },
+            friction: None,
+            animation: None,
+        };
+        assert!(mesh.triangles.len() > 2 * MESH_CHUNK, "the wall spans several chunks");
+        let checker = Checker::new(cloth.triangles.clone(), &[], std::slice::from_ref(&mesh));
+        let corners = |vertices: &[Vector3<f64>], t: &[u32; 3]| t.map(|v| vertices[v as usize]);
+        let expected = cloth
+            .triangles
+            .iter()
+            .filter(|c| {
+                let c = corners(&cloth.positions, c);
+                mesh.triangles.iter().any(|m| triangles_intersect(&c, &corners(&mesh.vertices, m)))
+            })
+            .count() as u32;
+        assert!(expected >= 20, "the wall cuts a row of the cloth: {expected}");
+        let found = checker.check(&cloth.positions, 0.0);
+        assert_eq!((found.collider_pairs, found.cloth_pairs), (expected, 0));
+    }
+
     #[test]
     fn grid_broad_phase_reports_every_overlapping_pair_once() {
         let boxes: Vec<(Vector3<f64>, Vector3<f64>)> = (0..40)
@@ -458,8 +522,7 @@ mod tests {
                 (lo, lo + Vector3::repeat(0.25 + 0.1 * (i % 4) as f64))
             })
             .collect();
-        let mut found = Vec::new();
-        for_each_overlapping_pair(&boxes, |i, j| found.push((i, j)));
+        let mut found = overlapping_pairs_where(&boxes, |_, _| true);
         let mut brute = Vec::new();
         for i in 0..boxes.len() {
             for j in i + 1..boxes.len() {
