@@ -305,9 +305,8 @@ struct BoxGrid {
     /// The cells each box reaches into.
     ranges: Vec<CellRange>,
     members: FxHashMap<[i64; 3], Vec<u32>>,
-    /// The bounds of all the boxes, and their cells.
+    /// The bounds of all the boxes.
     all: BoxBounds,
-    all_cells: CellRange,
 }
 
 impl BoxGrid {
@@ -316,28 +315,32 @@ impl BoxGrid {
         let all = boxes.iter().copied().reduce(|(lo, hi), (l, h)| (lo.inf(&l), hi.sup(&h)))?;
         let mean_size = boxes.iter().map(|(lo, hi)| (hi - lo).amax()).sum::<f64>() / boxes.len() as f64;
         let cell = mean_size.max(1e-6) * 2.0;
-        let mut grid =
-            BoxGrid { cell, ranges: Vec::new(), members: FxHashMap::default(), all, all_cells: ([0; 3], [0; 3]) };
-        grid.all_cells = grid.range(&all);
-        grid.ranges = boxes.par_iter().map(|b| grid.range(b)).collect();
-        for (i, &(lo, hi)) in grid.ranges.iter().enumerate() {
-            for cell in cells(lo, hi) {
-                grid.members.entry(cell).or_default().push(i as u32);
+        let ranges: Vec<CellRange> = boxes.par_iter().map(|b| cell_range(cell, b)).collect();
+        let mut members: FxHashMap<[i64; 3], Vec<u32>> = FxHashMap::default();
+        for (i, &(lo, hi)) in ranges.iter().enumerate() {
+            for key in cells(lo, hi) {
+                members.entry(key).or_default().push(i as u32);
             }
         }
-        Some(grid)
+        Some(BoxGrid { cell, ranges, members, all })
     }
 
     /// The lowest and highest cell a box reaches into.
-    fn range(&self, (lo, hi): &BoxBounds) -> ([i64; 3], [i64; 3]) {
-        let index = |x: f64| (x / self.cell).floor() as i64;
-        ([0, 1, 2].map(|k| index(lo[k])), [0, 1, 2].map(|k| index(hi[k])))
+    fn range(&self, b: &BoxBounds) -> CellRange {
+        cell_range(self.cell, b)
     }
 
     /// The boxes listed in `cell`.
     fn members(&self, cell: &[i64; 3]) -> &[u32] {
         self.members.get(cell).map_or(&[], Vec::as_slice)
     }
+}
+
+/// The lowest and highest cell of a grid of `cell`-wide cells (m) that a box
+/// reaches into.
+fn cell_range(cell: f64, (lo, hi): &BoxBounds) -> CellRange {
+    let index = |x: f64| (x / cell).floor() as i64;
+    ([0, 1, 2].map(|k| index(lo[k])), [0, 1, 2].map(|k| index(hi[k])))
 }
 
 /// Every cell from `lo` to `hi` (both included).
@@ -376,7 +379,8 @@ fn for_each_overlapping_pair_between(
     second: &[BoxBounds],
     mut f: impl FnMut(usize, usize),
 ) {
-    let (all, (all_lo, all_hi)) = (grid.all, grid.all_cells);
+    let all = grid.all;
+    let (all_lo, all_hi) = grid.range(&all);
     // The last box of `second` each box of `first` was offered to, so that a
     // pair sharing several cells is reported once.
     let mut offered = vec![usize::MAX; first.len()];

@@ -96,7 +96,7 @@ impl Gpu {
             None => Ok(created),
             Some(error) => Err(RenderError::Unsupported {
                 adapter: format!("{} ({:?})", self.adapter_name, self.backend),
-                problem: error_chain(&error),
+                problem: on_one_line(&error),
             }),
         }
     }
@@ -104,7 +104,7 @@ impl Gpu {
 
 /// wgpu's multi-line error report on one line: "Validation Error: In
 /// Device::create_render_pipeline, label = 'pbr': Internal error in ...".
-fn error_chain(error: &wgpu::Error) -> String {
+fn on_one_line(error: &wgpu::Error) -> String {
     let text = error.to_string();
     let lines = text.lines().map(str::trim).filter(|line| !line.is_empty() && *line != "Caused by:");
     lines.collect::<Vec<_>>().join(": ")

@@ -175,9 +175,23 @@ impl LowerTriangle {
         SymbolicSparseColMatRef::new_checked(self.dimension, self.dimension, &self.column_start, None, &self.row_index)
     }
 
+    /// The symbolic analysis of the matrix renumbered in AMD order
+    /// (`fill_reducing`), or in its own order as it stands.
+    fn analysis(&self, fill_reducing: bool) -> Result<SymbolicCholesky<u32>, CholeskyError> {
+        let analysed = if fill_reducing {
+            factorize_symbolic_cholesky(self.symbolic(), Side::Lower, SymmetricOrdering::Amd, Default::default())
+        } else {
+            // Analysed in its own order, a matrix is read as its upper triangle.
+            let (column_start, row_index) = self.upper();
+            let n = self.dimension;
+            let upper = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
+            factorize_symbolic_cholesky(upper, Side::Upper, SymmetricOrdering::Identity, Default::default())
+        };
+        analysed.map_err(|e| CholeskyError::Analysis(format!("{e:?}")))
+    }
+
     /// The pattern of the upper triangle (the mirror of this one), as column
-    /// starts and row indices: what the analysis of a matrix in its given
-    /// order reads.
+    /// starts and row indices.
     fn upper(&self) -> (Vec<u32>, Vec<u32>) {
         let mut column_start = vec![0u32; self.dimension + 1];
         for &row in &self.row_index {
@@ -475,27 +489,14 @@ impl LaggedCholesky {
     pub fn new(pattern: &BlockPattern, couplings: &[[u32; 2]]) -> Result<Self, CholeskyError> {
         let kept = kept_slots(pattern, couplings);
         let natural = LowerTriangle::new(pattern, &kept);
-        let analysis_failed = |e| CholeskyError::Analysis(format!("{e:?}"));
-        let fill_reducing =
-            factorize_symbolic_cholesky(natural.symbolic(), Side::Lower, SymmetricOrdering::Amd, Default::default())
-                .map_err(analysis_failed)?;
-        let lower = match fill_reducing.perm() {
+        let lower = match natural.analysis(true)?.perm() {
             Some(permutation) => {
                 let (order, position) = permutation.arrays();
                 natural.reordered(order, position)
             }
             None => natural,
         };
-        // Analysed in its own order, a matrix is read as its upper triangle.
-        let (column_start, row_index) = lower.upper();
-        let (n, upper) = (lower.dimension, SymbolicSparseColMatRef::new_checked);
-        let symbolic = factorize_symbolic_cholesky(
-            upper(n, n, &column_start, None, &row_index),
-            Side::Upper,
-            SymmetricOrdering::Identity,
-            Default::default(),
-        )
-        .map_err(analysis_failed)?;
+        let symbolic = lower.analysis(false)?;
         let numeric = Factor::Single(Numeric::new(&symbolic, &lower));
         Ok(LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
@@ -810,14 +811,8 @@ mod tests {
         }
         let pattern = BlockPattern::new((side * side) as usize, pairs.iter().copied());
         let natural = LowerTriangle::new(&pattern, &kept_slots(&pattern, &pairs));
-        let analyse = |pattern, side| {
-            let ordering = if side == Side::Lower { SymmetricOrdering::Amd } else { SymmetricOrdering::Identity };
-            factorize_symbolic_cholesky(pattern, side, ordering, Default::default()).unwrap().len_val()
-        };
-        let (column_start, row_index) = natural.upper();
-        let n = natural.dimension;
-        let upper = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
-        let (amd, unordered) = (analyse(natural.symbolic(), Side::Lower), analyse(upper, Side::Upper));
+        let fill = |fill_reducing| natural.analysis(fill_reducing).map(|s| s.len_val());
+        let (amd, unordered) = (fill(true).unwrap(), fill(false).unwrap());
         let cholesky = LaggedCholesky::new(&pattern, &pairs).unwrap();
         assert_eq!(cholesky.symbolic.len_val(), amd);
         assert!(amd < unordered, "AMD fills {amd} entries, the grid order {unordered}");
