@@ -12,6 +12,7 @@ pub mod cloth;
 pub mod colliders;
 pub mod collision;
 pub mod contact;
+pub mod edge_system;
 pub mod fabric;
 pub mod forces;
 pub mod implicit;
