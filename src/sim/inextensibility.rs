@@ -19,8 +19,8 @@
 //! Where that solve does not converge within the iterations a factor would
 //! cost (long chains of active edges between pins or contacts need hundreds),
 //! a sparse Cholesky factor of `J W Jᵀ` ([`super::edge_system`])
-//! preconditions it instead, and is kept for the projection's later Newton
-//! iterations while it still converges in a few.
+//! preconditions it instead, rebuilt at each of the projection's later
+//! Newton iterations.
 //! Velocities change with positions (`Δv = Δx / h`), so the step stays
 //! consistent. The inequality is an active set: an edge joins when it exceeds
 //! its limit, and leaves when its multiplier would push its ends apart (a
@@ -92,8 +92,8 @@ pub const MIN_JACOBI_BUDGET: u32 = 40;
 /// Jacobi iterations as a factor would cost before it builds one.
 pub const FACTOR_ENTRY_COST: f64 = 1.3;
 
-/// Iterations preconditioned by a kept factor (made at an earlier Newton
-/// iteration of the same projection) before it is rebuilt.
+/// Iterations preconditioned by a kept factor (made for the same
+/// linearisation, before edges were released) before it is rebuilt.
 pub const KEPT_FACTOR_BUDGET: u32 = 6;
 
 /// Relative residual at which a Newton iteration's linear solve stops.
@@ -256,6 +256,8 @@ struct Workspace {
     saved: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Whether this projection has a factor of `J W Jᵀ` to precondition with.
     factored: bool,
+    /// Whether Jacobi preconditioning was too slow in this projection.
+    factors_needed: bool,
 }
 
 /// The direct solver of `J W Jᵀ`, analysed the first time a projection needs it.
@@ -398,7 +400,7 @@ impl StrainLimits {
     fn run(&mut self, state: &mut ProjectedState, fallback: bool) -> ProjectionReport {
         let ws = &mut self.ws;
         ws.edges.resize(self.ends.len(), EdgeState::default());
-        ws.factored = false;
+        (ws.factored, ws.factors_needed) = (false, false);
         ws.active.clear();
         ws.active.resize(self.ends.len(), false);
         ws.active_list.clear();
@@ -439,12 +441,12 @@ impl StrainLimits {
                 break;
             }
             let before = self.squared_excess(state.x);
-            self.solve_multipliers(state.constraints, state.mass, report);
+            self.solve_multipliers(state.constraints, state.mass, Linearisation::New, report);
             for _ in 0..RELEASE_ROUNDS {
                 if !self.release_pushing_edges() {
                     break;
                 }
-                self.solve_multipliers(state.constraints, state.mass, report);
+                self.solve_multipliers(state.constraints, state.mass, Linearisation::Same, report);
             }
             report.newton_iterations += 1;
             self.gather_active(Compact::Multiplier);
@@ -554,29 +556,41 @@ impl StrainLimits {
         parallel::max(ends.len(), |e| if movable(e) { (edges[e].violation / rest[e]).max(0.0) } else { 0.0 })
     }
 
-    /// Solves `(J W Jᵀ) μ = C` on the active edges by conjugate gradients:
+    /// Solves `(J W Jᵀ) μ = C` on the active edges by conjugate gradients,
     /// Jacobi-preconditioned within the iterations a factor would cost
-    /// ([`Self::jacobi_budget`]); where that is not enough, preconditioned by a factor of `J W Jᵀ`, kept for the rest
-    /// of the projection while it converges within [`KEPT_FACTOR_BUDGET`]
-    /// and rebuilt when not (a fresh factor solves in one iteration). Without
-    /// a factor, Jacobi up to [`CG_ITERATIONS`].
-    fn solve_multipliers(&mut self, constraints: &[Constraint], mass: &[f64], report: &mut ProjectionReport) {
-        let (first, budget) = match self.ws.factored {
-            true => (Preconditioning::Factor, KEPT_FACTOR_BUDGET),
-            false => (Preconditioning::Jacobi, self.jacobi_budget(mass.len())),
+    /// ([`Self::jacobi_budget`]). Where that is not enough, a factor of
+    /// `J W Jᵀ` preconditions them, and every later solve of the projection
+    /// gets one too: a fresh factor at each new linearisation (one kept from
+    /// the last Newton iteration rarely converges within
+    /// [`KEPT_FACTOR_BUDGET`] where the edges turn far enough to need it),
+    /// the kept one after edges were released at the same linearisation.
+    /// Without a factor, Jacobi up to [`CG_ITERATIONS`].
+    fn solve_multipliers(
+        &mut self,
+        constraints: &[Constraint],
+        mass: &[f64],
+        linearisation: Linearisation,
+        report: &mut ProjectionReport,
+    ) {
+        let first = if self.ws.factored && linearisation == Linearisation::Same {
+            Some((Preconditioning::Factor, KEPT_FACTOR_BUDGET))
+        } else if self.ws.factors_needed {
+            None
+        } else {
+            Some((Preconditioning::Jacobi, self.jacobi_budget(mass.len())))
         };
-        let (iterations, converged) = self.conjugate_gradients(constraints, mass, first, budget);
-        report.cg_iterations += iterations;
-        if converged {
-            return;
+        if let Some((preconditioning, budget)) = first {
+            let (iterations, converged) = self.conjugate_gradients(constraints, mass, preconditioning, budget);
+            report.cg_iterations += iterations;
+            if converged {
+                return;
+            }
         }
+        self.ws.factors_needed = true;
         self.ws.factored = self.factor(constraints, mass);
-        let (preconditioning, cap) = match self.ws.factored {
-            true => (Preconditioning::Factor, CG_ITERATIONS),
-            false => (Preconditioning::Jacobi, CG_ITERATIONS),
-        };
+        let preconditioning = if self.ws.factored { Preconditioning::Factor } else { Preconditioning::Jacobi };
         report.factorizations += u32::from(self.ws.factored);
-        report.cg_iterations += self.conjugate_gradients(constraints, mass, preconditioning, cap).0;
+        report.cg_iterations += self.conjugate_gradients(constraints, mass, preconditioning, CG_ITERATIONS).0;
     }
 
     /// Jacobi iterations worth trying on the active edges before a factor:
@@ -752,6 +766,16 @@ enum Preconditioning {
     Jacobi,
     /// By a factor of `J W Jᵀ` ([`EdgeSystem`]).
     Factor,
+}
+
+/// Whether a solve follows a new linearisation of the constraints, or
+/// edges released at the same one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Linearisation {
+    /// The first solve of a Newton iteration.
+    New,
+    /// A solve after edges left the active set.
+    Same,
 }
 
 /// Which compact edge vector to gather.
