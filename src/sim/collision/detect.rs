@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::bvh::{Box3, SweptBvh};
-use super::ccd::{Hit, Path, edge_edge_within, vertex_triangle_within};
+use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_within};
 use super::features::Ownership;
 use super::obstacles::Obstacles;
 use super::response::{Contact, ContactKind};
@@ -80,8 +80,6 @@ impl CollisionPipeline {
         let clock = Instant::now();
         let n = self.particles.len();
         let ws = &mut self.ws;
-        ws.displacement.clear();
-        ws.displacement.extend(ws.start.iter().zip(&ws.end).map(|(a, b)| (b - a).norm()));
         ws.node_box.clear();
         for i in 0..ws.start.len() {
             let margin = self.particles.get(i).map_or(0.0, |p| p.thickness);
@@ -179,7 +177,6 @@ impl CollisionPipeline {
             cloth_count: n,
             start: &ws.start,
             end: &ws.end,
-            displacement: &ws.displacement,
             node_box: &ws.node_box,
             triangle_box: &ws.triangle_box,
             kept: &ws.kept,
@@ -228,7 +225,6 @@ struct Narrow<'a> {
     cloth_count: usize,
     start: &'a [Vector3<f64>],
     end: &'a [Vector3<f64>],
-    displacement: &'a [f64],
     node_box: &'a [Box3],
     triangle_box: &'a [Box3],
     kept: &'a [Contact],
@@ -287,10 +283,9 @@ impl Narrow<'_> {
         *tests += 1;
         let thickness = self.thickness(&[p, tri[0], tri[1], tri[2]]);
         let touching = self.detection.reach(thickness);
-        let travel =
-            self.displacement[p as usize] + tri.iter().map(|&v| self.displacement[v as usize]).fold(0.0, f64::max);
-        let [pa, pb, pc] = tri.map(|v| self.path(v));
-        let hit = vertex_triangle_within(&self.path(p), &pa, &pb, &pc, touching, travel);
+        let (point, [pa, pb, pc]) = (self.path(p), tri.map(|v| self.path(v)));
+        let reach = relative_reach(&[point], &[pa, pb, pc]);
+        let hit = vertex_triangle_within(&point, &pa, &pb, &pc, touching, reach);
         if let Some(hit) = hit.filter(|h| self.wanted(h)) {
             let nodes = [p, tri[0], tri[1], tri[2]];
             let body = nodes.iter().find_map(|&i| self.body(i));
@@ -315,9 +310,8 @@ impl Narrow<'_> {
         *tests += 1;
         let thickness = self.thickness(&nodes);
         let touching = self.detection.reach(thickness);
-        let travel = |e: [u32; 2]| self.displacement[e[0] as usize].max(self.displacement[e[1] as usize]);
         let [pa, pb, pc, pd] = nodes.map(|v| self.path(v));
-        let hit = edge_edge_within(&pa, &pb, &pc, &pd, touching, travel(e1) + travel(e2));
+        let hit = edge_edge_within(&pa, &pb, &pc, &pd, touching, relative_reach(&[pa, pb], &[pc, pd]));
         if let Some(hit) = hit.filter(|h| self.wanted(h)) {
             let body = nodes.iter().find_map(|&i| self.body(i));
             let friction = self.friction(&nodes, body);

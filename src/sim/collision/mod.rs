@@ -214,7 +214,6 @@ struct Workspace {
     velocity: Vec<Vector3<f64>>,
     inverse_mass: Vec<f64>,
     moved: Vec<bool>,
-    displacement: Vec<f64>,
     node_box: Vec<Box3>,
     triangle_box: Vec<Box3>,
     pairs: Vec<(u32, u32)>,
