@@ -80,10 +80,11 @@ impl CollisionPipeline {
         let clock = Instant::now();
         let n = self.particles.len();
         let ws = &mut self.ws;
+        let shift = mean_displacement(&ws.start[..n], &ws.end[..n]);
         ws.node_box.clear();
         for i in 0..ws.start.len() {
             let margin = self.particles.get(i).map_or(0.0, |p| p.thickness);
-            ws.node_box.push(Box3::empty().with(&ws.start[i]).with(&ws.end[i]).grown(margin));
+            ws.node_box.push(Box3::empty().with(&ws.start[i]).with(&(ws.end[i] - shift)).grown(margin));
         }
         ws.triangle_box.clear();
         ws.triangle_box.extend(self.triangles.iter().map(|t| {
@@ -202,6 +203,21 @@ impl CollisionPipeline {
         }
         report.narrow += clock.elapsed();
     }
+}
+
+/// The mean displacement over the step of the points that go `start` → `end`
+/// (zero for none), m.
+///
+/// Every box of a detection is taken in a frame that moves by this much over
+/// the step: each point's box spans its start and its end minus the shift.
+/// Two points' relative position at every time is the same in that frame as
+/// in the world (both are shifted by the same `t · shift`), and every test a
+/// box stands for is one of two features' relative position, so no contact
+/// is lost; but a garment carried along with a body, or a cloth falling as
+/// one, no longer has boxes stretched by the motion they share.
+fn mean_displacement(start: &[Vector3<f64>], end: &[Vector3<f64>]) -> Vector3<f64> {
+    let sum: Vector3<f64> = start.iter().zip(end).map(|(a, b)| b - a).sum();
+    if start.is_empty() { Vector3::zeros() } else { sum / start.len() as f64 }
 }
 
 /// The overlapping pairs `(low, high)` of cloth triangles with at least one
