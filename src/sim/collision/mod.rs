@@ -619,7 +619,7 @@ mod tests {
     /// motion over the step offset by `carried` (m): the contacts it finds
     /// and the detection's report.
     fn detect_folded(carried: Vector3<f64>) -> (BTreeSet<[u32; 5]>, CollisionReport) {
-        let (mut pipeline, n) = crumpled(true);
+        let (pipeline, n) = crumpled(true);
         let (start, mut end) = (pipeline.ws.start[..n].to_vec(), pipeline.ws.end[..n].to_vec());
         end.iter_mut().for_each(|p| *p += carried);
         let mut velocity = vec![Vector3::zeros(); n];
