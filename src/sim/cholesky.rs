@@ -43,14 +43,14 @@
 
 use std::sync::Arc;
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky};
+use faer::Side;
+use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::traits::{ComplexField, RealField};
-use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
+use super::llt::Llt;
 use super::parallel;
 use super::pcg::Constraint;
 use super::sparse::BlockPattern;
@@ -386,20 +386,16 @@ impl Precision for f64 {
 /// The numerical part of a factor in precision `T`, with its work space.
 struct Numeric<T> {
     values: Vec<T>,
-    factor: Vec<T>,
     rhs: Vec<T>,
-    factor_scratch: MemBuffer,
-    solve_scratch: MemBuffer,
+    llt: Llt<T>,
 }
 
 impl<T: Precision> Numeric<T> {
     fn new(symbolic: &SymbolicCholesky<u32>, lower: &LowerTriangle) -> Self {
         Numeric {
             values: vec![T::from_f64(0.0); lower.entries.len()],
-            factor: vec![T::from_f64(0.0); symbolic.len_val()],
             rhs: vec![T::from_f64(0.0); lower.dimension],
-            factor_scratch: MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<T>(Par::Seq, Default::default())),
-            solve_scratch: MemBuffer::new(symbolic.solve_in_place_scratch::<T>(1, Par::Seq)),
+            llt: Llt::new(symbolic),
         }
     }
 
@@ -412,18 +408,7 @@ impl<T: Precision> Numeric<T> {
     ) -> Result<(), CholeskyError> {
         lower.gather(filtered, &mut self.values);
         let matrix = SparseColMatRef::new(lower.symbolic(), &self.values);
-        symbolic
-            .factorize_numeric_llt(
-                &mut self.factor,
-                matrix,
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut self.factor_scratch),
-                Default::default(),
-            )
-            .map(|_| ())
-            .map_err(|_| CholeskyError::NotPositiveDefinite)
+        self.llt.factor(symbolic, matrix).map_err(|_| CholeskyError::NotPositiveDefinite)
     }
 
     /// `z = M⁻¹ r` with the factor.
@@ -437,13 +422,7 @@ impl<T: Precision> Numeric<T> {
         for (value, &k) in self.rhs.iter_mut().zip(&lower.system) {
             *value = T::from_f64(r[k as usize / 3][k as usize % 3]);
         }
-        let n = self.rhs.len();
-        LltRef::new(symbolic, &self.factor).solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut self.solve_scratch),
-        );
+        self.llt.solve_in_place(symbolic, &mut self.rhs);
         for (value, &k) in self.rhs.iter().zip(&lower.system) {
             z[k as usize / 3][k as usize % 3] = value.to_f64();
         }
@@ -452,7 +431,7 @@ impl<T: Precision> Numeric<T> {
     fn duplicate(&self, symbolic: &SymbolicCholesky<u32>, lower: &LowerTriangle) -> Self {
         let mut copy = Numeric::new(symbolic, lower);
         copy.values.clone_from(&self.values);
-        copy.factor.clone_from(&self.factor);
+        copy.llt = self.llt.duplicate(symbolic);
         copy
     }
 }

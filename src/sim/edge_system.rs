@@ -26,15 +26,15 @@
 
 use std::sync::Arc;
 
-use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::Side;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+    CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
 use nalgebra::Vector3;
 
+use super::llt::Llt;
 use super::pcg::Constraint;
 
 /// Relative shift of the scaled system's unit diagonal, unitless.
@@ -142,12 +142,10 @@ pub struct EdgeSystem {
     analysis: Arc<Analysis>,
     /// Lower-triangle values of the scaled, shifted system.
     values: Vec<f64>,
-    factor: Vec<f64>,
+    factor: Llt<f64>,
     /// `1 / √(J W Jᵀ)_ee` of each active edge (1 for the others).
     scale: Vec<f64>,
     rhs: Vec<f64>,
-    factor_scratch: MemBuffer,
-    solve_scratch: MemBuffer,
 }
 
 impl EdgeSystem {
@@ -160,11 +158,9 @@ impl EdgeSystem {
         let symbolic = &analysis.symbolic;
         EdgeSystem {
             values: vec![0.0; analysis.row_index.len()],
-            factor: vec![0.0; symbolic.len_val()],
+            factor: Llt::new(symbolic),
             scale: vec![1.0; analysis.edges],
             rhs: vec![0.0; analysis.edges],
-            factor_scratch: MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())),
-            solve_scratch: MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq)),
             analysis,
         }
     }
@@ -207,19 +203,7 @@ impl EdgeSystem {
             }
         }
         let matrix = SparseColMatRef::new(analysis.pattern(), &self.values);
-        analysis
-            .symbolic
-            .factorize_numeric_llt(
-                &mut self.factor,
-                matrix,
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut self.factor_scratch),
-                Default::default(),
-            )
-            .map(|_| ())
-            .map_err(|_| EdgeSystemError::NotPositiveDefinite)
+        self.factor.factor(&analysis.symbolic, matrix).map_err(|_| EdgeSystemError::NotPositiveDefinite)
     }
 
     /// `out = M⁻¹ rhs` on the `active` edges (as [`Self::factor`] was given
@@ -230,13 +214,7 @@ impl EdgeSystem {
         for (&e, &value) in active.iter().zip(rhs) {
             self.rhs[e as usize] = value * self.scale[e as usize];
         }
-        let n = self.rhs.len();
-        LltRef::new(&self.analysis.symbolic, &self.factor).solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut self.solve_scratch),
-        );
+        self.factor.solve_in_place(&self.analysis.symbolic, &mut self.rhs);
         for (value, &e) in out.iter_mut().zip(active) {
             *value = self.rhs[e as usize] * self.scale[e as usize];
         }

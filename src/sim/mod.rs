@@ -17,6 +17,7 @@ pub mod fabric;
 pub mod forces;
 pub mod implicit;
 pub mod inextensibility;
+pub mod llt;
 pub mod motion;
 pub mod multigrid;
 pub mod parallel;
