@@ -1,13 +1,14 @@
 //! The multiplier system `J W Jᵀ μ = C` of fast projection
-//! ([`super::inextensibility`]) solved by a sparse Cholesky factor, for the
-//! projections that conjugate gradients cannot finish quickly.
+//! ([`super::inextensibility`]) as a sparse Cholesky factor: the
+//! preconditioner of the projections that Jacobi-preconditioned conjugate
+//! gradients cannot finish quickly.
 //!
 //! Row `e` of `J` is the gradient of edge `e`'s length: `u_e` at its first
 //! end, `−u_e` at its second. Entry `(i, j)` of `J W Jᵀ` is therefore
 //! `Σ_v s_iv s_jv u_iᵀ W_v u_j` over the particles `v` the two edges share
 //! (`s = ±1` the side, `W_v = S_v / m_v` the particle's filtered inverse
 //! mass), so the pattern is the edges' adjacency: fixed by the mesh and
-//! analysed (approximate minimum degree, supernodes) once. Only the active
+//! analysed (approximate minimum degree, simplicial) once. Only the active
 //! edges take part in a solve; the others get an identity row, so one
 //! analysis serves every active set.
 //!
@@ -18,11 +19,11 @@
 //! of `W Jᵀ`, which move no particle, and changes the others by a relative
 //! [`REGULARIZATION`].
 //!
-//! Where conjugate gradients needs hundreds of iterations (long chains of
-//! active edges held by pins or by contacts), one factor and one solve take
-//! the time of a few dozen of them, and the Newton iterations of the
-//! projection then see exact steps. Factor and solve run on the calling
-//! thread, so the result is the same at any thread count.
+//! Where Jacobi-preconditioned conjugate gradients need hundreds of
+//! iterations (long chains of active edges held by pins or by contacts), a
+//! factor costs a few dozen of them, and preconditioned by it they converge
+//! in one or two. Factor and solve run on the calling thread, so the result
+//! is the same at any thread count.
 
 use std::sync::Arc;
 
@@ -69,10 +70,9 @@ struct Coupling {
 /// order, where each entry's value comes from, and the symbolic factor.
 struct Analysis {
     edges: usize,
+    /// Where each column starts, which is its diagonal entry `(e, e)`.
     column_start: Vec<u32>,
     row_index: Vec<u32>,
-    /// Index of entry `(e, e)` per edge.
-    diagonal: Vec<u32>,
     couplings: Vec<Coupling>,
     symbolic: SymbolicCholesky<u32>,
 }
@@ -94,10 +94,11 @@ impl Analysis {
             }
         }
         terms.sort_unstable_by_key(|&(column, row, particle, _)| (column, row, particle));
-        let (mut row_index, mut diagonal, mut couplings) = (Vec::new(), Vec::with_capacity(ends.len()), Vec::new());
+        let (mut row_index, mut column_start, mut couplings) =
+            (Vec::new(), Vec::with_capacity(ends.len() + 1), Vec::new());
         for &(column, row, particle, sign) in &terms {
             if row == column {
-                diagonal.push(row_index.len() as u32);
+                column_start.push(row_index.len() as u32);
                 row_index.push(row);
                 continue;
             }
@@ -106,7 +107,6 @@ impl Analysis {
             }
             couplings.push(Coupling { entry: row_index.len() as u32 - 1, row, column, particle, sign });
         }
-        let mut column_start = diagonal.clone();
         column_start.push(row_index.len() as u32);
         let n = ends.len();
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
@@ -119,7 +119,12 @@ impl Analysis {
         };
         let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, simplicial)
             .map_err(|e| EdgeSystemError::Analysis(format!("{e:?}")))?;
-        Ok(Analysis { edges: n, column_start, row_index, diagonal, couplings, symbolic })
+        Ok(Analysis { edges: n, column_start, row_index, couplings, symbolic })
+    }
+
+    /// Index of entry `(e, e)` in the values.
+    fn diagonal(&self, e: usize) -> usize {
+        self.column_start[e] as usize
     }
 
     fn pattern(&self) -> SymbolicSparseColMatRef<'_, u32> {
@@ -186,13 +191,13 @@ impl EdgeSystem {
         let analysis = &*self.analysis;
         self.values.fill(0.0);
         self.scale.fill(1.0);
-        for &e in &analysis.diagonal {
-            self.values[e as usize] = 1.0;
+        for e in 0..analysis.edges {
+            self.values[analysis.diagonal(e)] = 1.0;
         }
         for &e in active {
             let e = e as usize;
             self.scale[e] = 1.0 / row(e).diagonal.sqrt();
-            self.values[analysis.diagonal[e] as usize] = 1.0 + REGULARIZATION;
+            self.values[analysis.diagonal(e)] = 1.0 + REGULARIZATION;
         }
         let weighted = |v: u32, u: &Vector3<f64>| constraints[v as usize].filter(*u) / mass[v as usize];
         for c in &analysis.couplings {
@@ -222,7 +227,8 @@ impl EdgeSystem {
 }
 
 impl Clone for EdgeSystem {
-    /// The same analysis, with fresh work space (a factor is rebuilt per solve).
+    /// The same analysis, with fresh work space (each projection builds its
+    /// own factors).
     fn clone(&self) -> Self {
         Self::with_analysis(Arc::clone(&self.analysis))
     }

@@ -78,8 +78,7 @@ const STALLED_ITERATIONS: u32 = 3;
 /// impact, far from the limits) is slow, not stuck, and goes on.
 const UNREACHABLE_SHARE: f64 = 0.5;
 
-/// Conjugate-gradient iterations per Newton iteration when no direct solve
-/// can be had.
+/// Conjugate-gradient iterations of one multiplier solve at most.
 const CG_ITERATIONS: u32 = 400;
 
 /// Jacobi-preconditioned iterations a projection tries at least before it
