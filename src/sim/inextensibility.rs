@@ -282,6 +282,8 @@ pub struct StrainLimits {
     incidence: Incidence,
     ws: Workspace,
     direct: DirectSolver,
+    /// Whether the projection under way releases pushing edges.
+    release: Release,
 }
 
 impl StrainLimits {
@@ -315,6 +317,7 @@ impl StrainLimits {
             incidence,
             ws: Workspace::default(),
             direct: DirectSolver::default(),
+            release: Release::PushingEdges,
         };
         limits.max_length = limits.max_lengths_for(cloth);
         Some(limits)
@@ -368,20 +371,24 @@ impl StrainLimits {
         self.project_keeping(state, true)
     }
 
-    /// Like [`Self::project`], but without clamping: the result is kept only
-    /// when it meets the limits, and otherwise `state` is left as it was
-    /// (`abandoned`). Between collision passes a partial answer would fight
-    /// the impulses.
+    /// The projection between collision passes. Like [`Self::project`], but
+    /// without clamping: the result is kept only when it meets the limits,
+    /// and otherwise `state` is left as it was (`abandoned`), because a
+    /// partial answer would fight the impulses. Edges near their limit are
+    /// held at it rather than released when their multiplier pushes (see
+    /// [`Release`]): each release round costs a solve, often a factor, and
+    /// after an impulse pass they are most of the projection's time.
     pub fn project_if_met(&mut self, state: ProjectedState) -> ProjectionReport {
         self.project_keeping(state, false)
     }
 
     /// Runs the projection on `state`, undoing it when it stalls, or (without
-    /// `fallback`) when it misses its tolerance.
+    /// `fallback`, between collision passes) when it misses its tolerance.
     fn project_keeping(&mut self, mut state: ProjectedState, fallback: bool) -> ProjectionReport {
         let mut saved = std::mem::take(&mut self.ws.saved);
         saved.clear();
         saved.extend(state.x.iter().zip(state.v.iter()).map(|(x, v)| (*x, *v)));
+        self.release = if fallback { Release::PushingEdges } else { Release::Never };
         let mut report = self.run(&mut state, fallback);
         let missed = !fallback && report.excess_strain > STRAIN_TOLERANCE;
         if report.stalled || missed {
@@ -441,7 +448,8 @@ impl StrainLimits {
             }
             let before = self.squared_excess(state.x);
             self.solve_multipliers(state.constraints, state.mass, Linearisation::New, report);
-            for _ in 0..RELEASE_ROUNDS {
+            let rounds = if self.release == Release::PushingEdges { RELEASE_ROUNDS } else { 0 };
+            for _ in 0..rounds {
                 if !self.release_pushing_edges() {
                     break;
                 }
@@ -518,8 +526,11 @@ impl StrainLimits {
     }
 
     /// Directions, constraint values and `J W Jᵀ` diagonal of every edge at
-    /// `x` (the gradient at the current iterate, as in fast projection); edges over their limit that a particle can shorten join the active
-    /// set (and stay). Returns the largest strain beyond the limit among
+    /// `x` (the gradient at the current iterate, as in fast projection).
+    /// Movable edges within [`NEAR_LIMIT`] of their limit join the active
+    /// set and stay, unless the projection holds instead of releasing
+    /// ([`Release::Never`]): then an edge leaves once it is further from its
+    /// limit than that. Returns the largest strain beyond the limit among
     /// movable edges.
     fn linearise(&mut self, state: &ProjectedState) -> f64 {
         let (x, constraints, mass) = (&*state.x, state.constraints, state.mass);
@@ -538,8 +549,15 @@ impl StrainLimits {
             let [a, b] = ends[e];
             ws.edges[e].diagonal > 1e-12 * (1.0 / mass[a as usize] + 1.0 / mass[b as usize])
         };
+        let holding = self.release == Release::Never;
+        let mut dropped = false;
         for e in 0..ends.len() {
-            if !ws.active[e] && ws.edges[e].violation > -NEAR_LIMIT * rest[e] && movable(e) {
+            let near = ws.edges[e].violation > -NEAR_LIMIT * rest[e] && movable(e);
+            if holding && ws.active[e] && !near {
+                ws.active[e] = false;
+                dropped = true;
+            }
+            if !ws.active[e] && near {
                 ws.active[e] = true;
                 ws.active_list.push(e as u32);
                 for v in ends[e] {
@@ -549,6 +567,10 @@ impl StrainLimits {
                     }
                 }
             }
+        }
+        if dropped {
+            let active = &ws.active;
+            ws.active_list.retain(|&e| active[e as usize]);
         }
         ws.active_list.sort_unstable();
         let edges = &ws.edges;
@@ -767,6 +789,21 @@ enum Preconditioning {
     Factor,
 }
 
+/// What a projection does with an active edge within its limit whose
+/// multiplier would push its ends apart.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Release {
+    /// Takes it out and solves again, up to [`RELEASE_ROUNDS`] times per
+    /// Newton iteration: the exact inequality projection, for the projection
+    /// after the implicit solve, whose result the cloth keeps.
+    PushingEdges,
+    /// Holds it at its limit while it stays within [`NEAR_LIMIT`] of it (it
+    /// leaves at a linearisation that finds it further), so this lengthens
+    /// an edge by at most that strain, and the next step's projection starts
+    /// afresh: the cloth still settles. Used between collision passes.
+    Never,
+}
+
 /// Whether a solve follows a new linearisation of the constraints, or
 /// edges released at the same one.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -907,6 +944,47 @@ mod tests {
         let strain = strains(&cloth, &x).into_iter().fold(f64::MIN, f64::max);
         assert!(strain <= 0.01 + STRAIN_TOLERANCE, "{strain}");
         assert_eq!(x[..48], start[..48], "the pinned side stays");
+    }
+
+    /// Between collision passes ([`StrainLimits::project_if_met`]) edges
+    /// near their limit are held at it instead of released: on a pinned
+    /// cloth hanging at its limits whose middle an impulse pass kicked
+    /// sideways by 2 cm, the limits are met, every particle ends within
+    /// 0.4 mm of where the exact inequality projection puts it (0.18 mm
+    /// measured), with fewer factors and iterations (6 and 46 against 12
+    /// and 98).
+    #[test]
+    fn between_passes_near_limit_edges_are_held_at_their_limit() {
+        let (cloth, start) = stretched_grid(24, 1.1);
+        let mut pinned = vec![Constraint::Free; start.len()];
+        pinned[..24].iter_mut().for_each(|c| *c = Constraint::Fixed);
+        let (mut hanging, mut v) = (start.clone(), vec![Vector3::zeros(); start.len()]);
+        project(StrainLimiting::Projection, &cloth, &mut hanging, &mut v, &pinned);
+        let kick = 0.02;
+        let mut kicked = hanging.clone();
+        for i in (10..14).flat_map(|row| (10..14).map(move |column| row * 24 + column)) {
+            kicked[i].x += kick;
+        }
+        let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
+        let mut run = |held: bool| {
+            let (mut x, mut v) = (kicked.clone(), vec![Vector3::zeros(); start.len()]);
+            let state = ProjectedState { x: &mut x, v: &mut v, constraints: &pinned, mass: &cloth.mass, h: 0.01 };
+            let report = if held { limits.project_if_met(state) } else { limits.project(state) };
+            (x, report)
+        };
+        let (exact, exact_report) = run(false);
+        let (held, held_report) = run(true);
+        for (x, report) in [(&exact, exact_report), (&held, held_report)] {
+            assert!(!report.abandoned && !report.fell_back, "{report:?}");
+            let strain = strains(&cloth, x).into_iter().fold(f64::MIN, f64::max);
+            assert!(strain <= 0.01 + STRAIN_TOLERANCE, "{strain}");
+        }
+        let apart = exact.iter().zip(&held).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        let moved = exact.iter().zip(&kicked).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        assert!(apart <= 0.02 * kick, "{apart} m apart; the exact projection moved particles {moved} m");
+        let work = |r: &ProjectionReport| (r.factorizations, r.cg_iterations);
+        let (held_work, exact_work) = (work(&held_report), work(&exact_report));
+        assert!(held_work.0 < exact_work.0 && held_work.1 < exact_work.1, "{held_report:?} vs {exact_report:?}");
     }
 
     #[test]
