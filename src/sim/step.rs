@@ -173,7 +173,7 @@ pub struct StageTimings {
     /// Particles against analytic colliders (before the triangle
     /// collisions; their corrections within those count as `response`).
     pub contacts: Duration,
-    /// Collision hierarchy refits.
+    /// Loading the collision step: points, boxes and hierarchy refits.
     pub refit: Duration,
     /// Collision broad phase.
     pub broad: Duration,

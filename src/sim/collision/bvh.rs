@@ -8,7 +8,7 @@
 use nalgebra::Vector3;
 use parry3d::bounding_volume::Aabb;
 use parry3d::math::Vector;
-use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhWorkspace};
+use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhNode, BvhWorkspace};
 
 /// Steps between incremental re-optimisations of the tree (refitting alone
 /// lets its quality decay as the cloth deforms).
@@ -109,6 +109,14 @@ impl SweptBvh {
         out.clear();
         self.bvh.traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| out.push((a.min(b), a.max(b))));
         out.sort_unstable();
+    }
+
+    /// Every pair `(leaf of self, leaf of other)` whose boxes overlap, in
+    /// no particular order, appended to `out`; a few pairs whose boxes do
+    /// not overlap may be among them (the traversal hands over its first
+    /// node pairs unchecked), so callers test each pair's own boxes.
+    pub fn pairs_with(&self, other: &SweptBvh, out: &mut Vec<(u32, u32)>) {
+        out.extend(self.bvh.leaf_pairs(&other.bvh, |a: &BvhNode, b: &BvhNode| a.intersects(b)));
     }
 
     /// Leaves whose boxes overlap `query`, sorted, into `out`.

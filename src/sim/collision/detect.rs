@@ -13,7 +13,7 @@ use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_wi
 use super::features::Ownership;
 use super::obstacles::Obstacles;
 use super::response::{Contact, ContactKind};
-use super::{CollisionPipeline, CollisionReport, ParticleCollision};
+use super::{CollisionPipeline, CollisionReport, ParticleCollision, Workspace};
 
 /// Candidate jobs per parallel chunk of the narrow phase.
 const JOBS_PER_CHUNK: usize = 512;
@@ -74,17 +74,41 @@ pub(super) enum Job {
 }
 
 impl CollisionPipeline {
+    /// The step's frame for boxes (moving with the cloth's mean displacement
+    /// as the implicit solve proposed it) and the obstacles' boxes in it,
+    /// with their hierarchy refitted: obstacles do not move within a step,
+    /// so every detection of the step shares them.
+    pub(super) fn frame_obstacles(&mut self) {
+        let n = self.particles.len();
+        let ws = &mut self.ws;
+        ws.shift = mean_displacement(&ws.start[..n], &ws.end[..n]);
+        ws.node_box.clear();
+        ws.node_box.resize(n, Box3::empty());
+        let shift = ws.shift;
+        ws.node_box
+            .extend(ws.start[n..].iter().zip(&ws.end[n..]).map(|(a, b)| Box3::empty().with(a).with(&(b - shift))));
+        ws.obstacle_box.clear();
+        ws.obstacle_box.extend(self.obstacles.triangles.iter().map(|tri| {
+            let [a, b, c] = tri.map(|v| ws.node_box[n + v as usize]);
+            a.union(&b).union(&c)
+        }));
+        if ws.obstacle_box.is_empty() {
+            return;
+        }
+        match &mut self.obstacle_bvh {
+            Some(bvh) => bvh.update(&ws.obstacle_box),
+            None => self.obstacle_bvh = Some(SweptBvh::new(&ws.obstacle_box)),
+        }
+    }
+
     /// Boxes, broad phase and narrow phase over `scope`: fills the
     /// workspace's contacts.
     pub(super) fn detect(&mut self, detection: Detection, scope: Scope, report: &mut CollisionReport) {
         let clock = Instant::now();
         let n = self.particles.len();
         let ws = &mut self.ws;
-        let shift = mean_displacement(&ws.start[..n], &ws.end[..n]);
-        ws.node_box.clear();
-        for i in 0..ws.start.len() {
-            let margin = self.particles.get(i).map_or(0.0, |p| p.thickness);
-            ws.node_box.push(Box3::empty().with(&ws.start[i]).with(&(ws.end[i] - shift)).grown(margin));
+        for (i, particle) in self.particles.iter().enumerate() {
+            ws.node_box[i] = Box3::empty().with(&ws.start[i]).with(&(ws.end[i] - ws.shift)).grown(particle.thickness);
         }
         ws.triangle_box.clear();
         ws.triangle_box.extend(self.triangles.iter().map(|t| {
@@ -129,16 +153,9 @@ impl CollisionPipeline {
             }));
         }
         let o = &self.obstacles;
-        // Obstacle parts away from the (moved) cloth — a body's head and arms
-        // under a skirt — skip the hierarchy query.
-        for (t, tri) in o.triangles.iter().enumerate() {
-            let [a, b, c] = tri.map(|v| ws.node_box[n + v as usize]);
-            let tri_box = a.union(&b).union(&c);
-            if !tri_box.overlaps(&near) {
-                continue;
-            }
-            bvh.overlapping(&tri_box, &mut ws.hits);
-            ws.jobs.extend(ws.hits.iter().map(|&h| Job::Mesh(h, t as u32)));
+        if let Some(obstacle_bvh) = &self.obstacle_bvh {
+            mesh_pairs(bvh, obstacle_bvh, ws, moved);
+            ws.jobs.extend(ws.mesh_pairs.iter().map(|&(t, h)| Job::Mesh(h, t)));
         }
         for &v in &o.feature_vertices {
             let vertex_box = ws.node_box[n + v as usize];
@@ -205,11 +222,31 @@ impl CollisionPipeline {
     }
 }
 
+/// The overlapping pairs `(obstacle triangle, cloth triangle)` of the
+/// workspace's boxes into its `mesh_pairs`, sorted: every pair, or with
+/// `moved` only those of a moved cloth triangle.
+fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved: bool) {
+    let pairs = &mut ws.mesh_pairs;
+    pairs.clear();
+    if moved {
+        for (h, _) in ws.moved_triangle.iter().enumerate().filter(|(_, m)| **m) {
+            obstacles.overlapping(&ws.triangle_box[h], &mut ws.hits);
+            pairs.extend(ws.hits.iter().map(|&t| (t, h as u32)));
+        }
+    } else {
+        obstacles.pairs_with(cloth, pairs);
+    }
+    let (cloth_box, obstacle_box) = (&ws.triangle_box, &ws.obstacle_box);
+    pairs.retain(|&(t, h)| obstacle_box[t as usize].overlaps(&cloth_box[h as usize]));
+    pairs.sort_unstable();
+}
+
 /// The mean displacement over the step of the points that go `start` → `end`
 /// (zero for none), m.
 ///
-/// Every box of a detection is taken in a frame that moves by this much over
-/// the step: each point's box spans its start and its end minus the shift.
+/// Every box of a step's detections is taken in a frame that moves by this
+/// much over the step (as the implicit solve proposed the ends): each
+/// point's box spans its start and its end minus the shift.
 /// Two points' relative position at every time is the same in that frame as
 /// in the world (both are shifted by the same `t · shift`), and every test a
 /// box stands for is one of two features' relative position, so no contact

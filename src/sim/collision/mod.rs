@@ -8,10 +8,13 @@
 //! 1. **refit**: each cloth triangle's box over the whole step (start and
 //!    proposed end of its corners, grown by the thickness) refits a BVH built
 //!    once; boxes are taken in a frame that moves with the cloth's mean
-//!    displacement, so motion the features share does not stretch them;
+//!    displacement, so motion the features share does not stretch them. The
+//!    mesh colliders' triangles have a BVH of their own, refitted once per
+//!    step: they do not move within it;
 //! 2. **broad**: overlapping triangle pairs (within a garment only if its
-//!    self-collision is on), cloth triangles near mesh-collider triangles and
-//!    near sharp obstacle features;
+//!    self-collision is on), cloth triangles near mesh-collider triangles
+//!    (the two hierarchies traversed together, or the moved cloth triangles'
+//!    queries after a response) and near sharp obstacle features;
 //! 3. **narrow**: for each pair, only the features the triangles own
 //!    (representative triangles), each first culled by its own box and by a
 //!    distance bound, then tested by continuous collision detection;
@@ -139,7 +142,7 @@ impl CollisionMemory {
 /// What collision processing did in one step.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CollisionReport {
-    /// BVH refits.
+    /// Loading the step: points, boxes and BVH refits.
     pub refit: Duration,
     /// Broad phase.
     pub broad: Duration,
@@ -202,6 +205,8 @@ pub struct CollisionPipeline {
     obstacles: Obstacles,
     particles: Vec<ParticleCollision>,
     bvh: Option<SweptBvh>,
+    /// Over the mesh colliders' triangles (none without any).
+    obstacle_bvh: Option<SweptBvh>,
     influence: HashMap<[u32; 5], (f64, bool)>,
     ws: Workspace,
 }
@@ -215,9 +220,17 @@ struct Workspace {
     velocity: Vec<Vector3<f64>>,
     inverse_mass: Vec<f64>,
     moved: Vec<bool>,
+    /// The step's frame: boxes span each point's start and its end minus
+    /// this, m (see `detect::mean_displacement`).
+    shift: Vector3<f64>,
+    /// Per point (cloth, then obstacles): its box over the step in that frame.
     node_box: Vec<Box3>,
     triangle_box: Vec<Box3>,
+    /// Per obstacle triangle: its box over the step.
+    obstacle_box: Vec<Box3>,
     pairs: Vec<(u32, u32)>,
+    /// `(obstacle triangle, cloth triangle)` pairs of a broad phase.
+    mesh_pairs: Vec<(u32, u32)>,
     hits: Vec<u32>,
     jobs: Vec<Job>,
     chunks: Vec<(Vec<Contact>, u64, u64)>,
@@ -286,6 +299,7 @@ impl CollisionPipeline {
             obstacles,
             particles,
             bvh: None,
+            obstacle_bvh: None,
             influence: HashMap::new(),
             ws: Workspace::default(),
         })
@@ -320,7 +334,9 @@ impl CollisionPipeline {
     ) -> CollisionReport {
         let mut report = CollisionReport::default();
         let n = cloth.start.len();
+        let clock = Instant::now();
         self.load(&cloth, window);
+        report.refit += clock.elapsed();
         let mut first = true;
         let mut settled = false;
         for pass in 0..self.settings.passes {
@@ -423,6 +439,7 @@ impl CollisionPipeline {
         ws.moved.resize(ws.start.len(), false);
         ws.held.clear();
         ws.held.resize(cloth.start.len(), false);
+        self.frame_obstacles();
     }
 
     /// One pass of impulses over every contact, then sweeps over the
@@ -649,6 +666,61 @@ mod tests {
         assert_eq!(still, carried);
         let (a, b) = (still_report.tests as f64, carried_report.tests as f64);
         assert!((a - b).abs() <= 0.01 * a, "{a} tests at rest, {b} carried");
+    }
+
+    /// The mesh colliders' hierarchy and the cloth's, traversed together,
+    /// give exactly the (obstacle, cloth) triangle pairs whose boxes
+    /// overlap; after a response, the moved cloth triangles' queries give
+    /// exactly those of them that hold a moved triangle.
+    #[test]
+    fn mesh_collider_pairs_are_every_overlapping_pair() {
+        let grid = generate::grid(1.0, 16);
+        let floor = generate::grid(1.2, 23);
+        let start = grid.positions.clone();
+        let end: Vec<Vector3<f64>> =
+            start.iter().enumerate().map(|(i, p)| p + Vector3::from_fn(|k, _| 0.006 * wobble(i, k))).collect();
+        let mut velocity = vec![Vector3::zeros(); start.len()];
+        let floor = MeshCollider {
+            name: "floor".into(),
+            vertices: floor.positions,
+            triangles: floor.triangles,
+            placement: Placement { rest_pose: Isometry3::translation(0.05, -0.004, 0.0), motion: None },
+            friction: None,
+            animation: None,
+        };
+        let particles = vec![ParticleCollision { thickness: THICKNESS, friction: 0.3, pinned: None }; start.len()];
+        let obstacles = Obstacles::new(&[], &[floor], FINE_CLOTH);
+        let count = grid.triangles.len();
+        let mut pipeline = CollisionPipeline::new(
+            grid.triangles,
+            vec![0; count],
+            vec![false],
+            particles,
+            obstacles,
+            Default::default(),
+        )
+        .unwrap();
+        let mass = vec![1e-3; start.len()];
+        let cloth = ClothState { start: &start, end: &mut end.clone(), velocity: &mut velocity, mass: &mass };
+        pipeline.load(&cloth, StepWindow { t0: 0.0, t1: 0.01 });
+        let overlapping = |ws: &Workspace, wanted: &dyn Fn(usize) -> bool| {
+            let mut pairs = Vec::new();
+            for (t, obstacle) in ws.obstacle_box.iter().enumerate() {
+                let hits = ws.triangle_box.iter().enumerate().filter(|(h, b)| wanted(*h) && b.overlaps(obstacle));
+                pairs.extend(hits.map(|(h, _)| (t as u32, h as u32)));
+            }
+            pairs
+        };
+        pipeline.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
+        let all = overlapping(&pipeline.ws, &|_| true);
+        assert!(all.len() > 1000, "the cloth lies on the floor: {} pairs", all.len());
+        assert_eq!(pipeline.ws.mesh_pairs, all);
+        pipeline.ws.moved.iter_mut().step_by(5).for_each(|m| *m = true);
+        pipeline.detect(Detection::Proximity, Scope::Moved, &mut CollisionReport::default());
+        let moved_triangle = pipeline.ws.moved_triangle.clone();
+        let moved = overlapping(&pipeline.ws, &|h| moved_triangle[h]);
+        assert!(!moved.is_empty() && moved.len() < all.len(), "{} of {}", moved.len(), all.len());
+        assert_eq!(pipeline.ws.mesh_pairs, moved);
     }
 
     /// PAPER Algorithm 1: owning each feature once finds exactly the contacts
