@@ -844,6 +844,15 @@ mod tests {
         (cloth, x)
     }
 
+    /// [`stretched_grid`] of `n` × `n` pulled 10 % long, its first row pinned,
+    /// with the particles' constraints.
+    fn pulled_from_one_side(n: usize) -> (Cloth, Vec<Vector3<f64>>, Vec<Constraint>) {
+        let (cloth, start) = stretched_grid(n, 1.1);
+        let mut pinned = vec![Constraint::Free; start.len()];
+        pinned[..n].iter_mut().for_each(|c| *c = Constraint::Fixed);
+        (cloth, start, pinned)
+    }
+
     fn strains(cloth: &Cloth, x: &[Vector3<f64>]) -> Vec<f64> {
         (0..cloth.spring_count())
             .filter(|&s| cloth.spring_kind[s] == SpringKind::Stretch)
@@ -933,9 +942,7 @@ mod tests {
     /// needs a few.
     #[test]
     fn long_chains_of_active_edges_are_solved_with_a_factor() {
-        let (cloth, start) = stretched_grid(48, 1.1);
-        let mut pinned = vec![Constraint::Free; start.len()];
-        pinned[..48].iter_mut().for_each(|c| *c = Constraint::Fixed);
+        let (cloth, start, pinned) = pulled_from_one_side(48);
         let (mut x, mut v) = (start.clone(), vec![Vector3::zeros(); start.len()]);
         let report = project(StrainLimiting::Projection, &cloth, &mut x, &mut v, &pinned);
         assert!(report.factorizations > 0 && !report.fell_back, "{report:?}");
@@ -955,9 +962,7 @@ mod tests {
     /// and 98).
     #[test]
     fn between_passes_near_limit_edges_are_held_at_their_limit() {
-        let (cloth, start) = stretched_grid(24, 1.1);
-        let mut pinned = vec![Constraint::Free; start.len()];
-        pinned[..24].iter_mut().for_each(|c| *c = Constraint::Fixed);
+        let (cloth, start, pinned) = pulled_from_one_side(24);
         let (mut hanging, mut v) = (start.clone(), vec![Vector3::zeros(); start.len()]);
         project(StrainLimiting::Projection, &cloth, &mut hanging, &mut v, &pinned);
         let kick = 0.02;
