@@ -510,6 +510,18 @@ mod tests {
         assert!((relative_reach(&edge, &other) - 2.0).abs() < 1e-8);
     }
 
+    /// Fails unless `distance(t)`, sampled over the step, never falls below
+    /// `distance(0) − reach`.
+    fn stays_within_reach(distance: impl Fn(f64) -> f64, reach: f64) -> Result<(), TestCaseError> {
+        let start = distance(0.0);
+        for k in 0..=100 {
+            let t = f64::from(k) / 100.0;
+            let now = distance(t);
+            prop_assert!(now >= start - reach - 1e-12, "t = {t}: {now} < {start} - {reach}");
+        }
+        Ok(())
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(400))]
 
@@ -518,24 +530,14 @@ mod tests {
         /// culling by it loses no contact.
         #[test]
         fn vertex_triangle_distance_stays_within_the_relative_reach(p in path(), a in path(), b in path(), c in path()) {
-            let start = point_triangle_distance(&p.start, &a.start, &b.start, &c.start);
-            let reach = relative_reach(&[p], &[a, b, c]);
-            for k in 0..=100 {
-                let t = f64::from(k) / 100.0;
-                let now = point_triangle_distance(&p.at(t), &a.at(t), &b.at(t), &c.at(t));
-                prop_assert!(now >= start - reach - 1e-12, "t = {t}: {now} < {start} - {reach}");
-            }
+            let distance = |t: f64| point_triangle_distance(&p.at(t), &a.at(t), &b.at(t), &c.at(t));
+            stays_within_reach(distance, relative_reach(&[p], &[a, b, c]))?;
         }
 
         #[test]
         fn edge_edge_distance_stays_within_the_relative_reach(a in path(), b in path(), c in path(), d in path()) {
-            let start = segment_distance(&a.start, &b.start, &c.start, &d.start);
-            let reach = relative_reach(&[a, b], &[c, d]);
-            for k in 0..=100 {
-                let t = f64::from(k) / 100.0;
-                let now = segment_distance(&a.at(t), &b.at(t), &c.at(t), &d.at(t));
-                prop_assert!(now >= start - reach - 1e-12, "t = {t}: {now} < {start} - {reach}");
-            }
+            let distance = |t: f64| segment_distance(&a.at(t), &b.at(t), &c.at(t), &d.at(t));
+            stays_within_reach(distance, relative_reach(&[a, b], &[c, d]))?;
         }
 
         /// CCD never misses a crossing that a 10,000-sample brute force finds.

@@ -135,11 +135,13 @@ impl CollisionPipeline {
             ws.moved_triangle.extend(self.triangles.iter().map(|t| t.iter().any(|&v| points[v as usize])));
             ws.jobs.extend((0..ws.kept.len() as u32).map(Job::Again));
         }
+        // The (moved) cloth's box, for the sharp features' queries only.
+        let sharp = !self.obstacles.feature_vertices.is_empty() || !self.obstacles.feature_edges.is_empty();
         let near = ws
             .triangle_box
             .iter()
             .enumerate()
-            .filter(|&(t, _)| !moved || ws.moved_triangle[t])
+            .filter(|&(t, _)| sharp && (!moved || ws.moved_triangle[t]))
             .fold(Box3::empty(), |all, (_, b)| all.union(b));
         if self.self_collision.iter().any(|&s| s) || self.self_collision.len() > 1 {
             match moved {
