@@ -900,6 +900,10 @@ fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> 
     if let Some(dir) = out {
         println!("wrote {}", dir.display());
     }
+    let stopped: Vec<&str> = results.iter().filter(|r| r.summary.stopped.is_some()).map(|r| r.case.as_str()).collect();
+    if !stopped.is_empty() {
+        return Err(Failure::Internal(format!("{} stopped early (see above)", stopped.join(", "))));
+    }
     Ok(())
 }
 

@@ -148,3 +148,16 @@ fn a_step_that_fails_at_the_floor_stops_the_bake_with_frame_and_cause() {
     assert!(message.contains(&format!("frame {}", records.len() + 1)), "{message}");
     assert!(message.contains("did not converge") && message.contains("shortest allowed step"), "{message}");
 }
+
+/// A benchmark case whose simulation stops is measured over the frames
+/// before the stop, with the reason, instead of ending the whole suite.
+#[test]
+fn a_benchmark_run_that_stops_is_measured_up_to_the_stop() {
+    let scene = capped_swing(3);
+    let (records, _) = bake::run(&scene, scene.frame_count, &AtomicBool::new(false), |_, _| Ok(())).unwrap();
+    let (summary, _) = drape::bench::measure(&scene, None, None).expect("the run starts");
+    assert!(!summary.complete);
+    let why = summary.stopped.expect("the reason is kept");
+    assert!(why.contains(&format!("frame {}", records.len() + 1)) && why.contains("did not converge"), "{why}");
+    assert_eq!(summary.per_frame.len(), records.len(), "every frame before the stop is measured");
+}

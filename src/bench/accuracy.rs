@@ -19,6 +19,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use nalgebra::Vector3;
 
 use super::plots::PlotError;
+use crate::bake::summary::BakeSummary;
 use crate::bake::{self, BakeError};
 use crate::io::atomic::{WriteError, write_file};
 use crate::scene::Scene;
@@ -262,6 +263,10 @@ pub fn sweep(
             let run = variant(scene, steps_per_frame, tolerance);
             let (summary, contact, end) = match super::measure(&run, Some(reference.frames_needed()), Some(&reference))
             {
+                Ok((BakeSummary { stopped: Some(why), .. }, _)) => {
+                    log(&format!("{}: that run failed ({why}); left out", scene.name));
+                    continue;
+                }
                 Ok((summary, Some(RunErrors { contact: Some(contact), end }))) => (summary, contact, end),
                 Ok(_) => {
                     log(&format!("{}: that run ended before the contact window did; left out", scene.name));

@@ -236,7 +236,9 @@ fn cases(suite: Suite) -> Vec<Case> {
 
 /// Runs `suite`, logging each case as it starts: its reference run first
 /// (if it is measured against one; a reference that fails is logged and the
-/// case runs without an error figure), then the case itself.
+/// case runs without an error figure), then the case itself. A case whose
+/// simulation stops is logged with the reason and kept, measured over the
+/// frames before the stop and named so in every table; the suite goes on.
 pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Vec<BenchResult>, BenchError> {
     let mut results = Vec::new();
     for case in cases(suite) {
@@ -252,13 +254,21 @@ pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Ve
         log(&format!("running {name} ..."));
         memory::reset_peak();
         let (summary, errors) = measure(&scene, frames, reference.as_ref())?;
-        results.push(BenchResult { summary, case: name, peak_memory_mib: memory::peak_mib(), errors });
+        let case = match &summary.stopped {
+            Some(why) => {
+                log(&format!("{name}: {why}; measured over the frames before"));
+                format!("{name} (stopped after {} frames)", summary.frames - 1)
+            }
+            None => name,
+        };
+        results.push(BenchResult { summary, case, peak_memory_mib: memory::peak_mib(), errors });
     }
     Ok(results)
 }
 
 /// Runs `scene` (the first `frames` frames, or all) and summarises it, with
-/// its errors against `reference` when one is given.
+/// its errors against `reference` when one is given. A simulation that stops
+/// is summarised up to the stop, with the reason in the summary's `stopped`.
 pub fn measure(
     scene: &Scene,
     frames: Option<usize>,
@@ -272,10 +282,8 @@ pub fn measure(
         }
         Ok(())
     })?;
-    if let Some(failure) = failure {
-        return Err(failure);
-    }
-    Ok((BakeSummary::new(scene, &records, frames, None), meter.map(|m| m.errors())))
+    let stopped = failure.map(|failure| failure.to_string());
+    Ok((BakeSummary::new(scene, &records, frames, stopped), meter.map(|m| m.errors())))
 }
 
 /// A relative error (a fraction of the cloth's diagonal) in the accuracy
