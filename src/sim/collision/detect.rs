@@ -137,12 +137,8 @@ impl CollisionPipeline {
         }
         // The (moved) cloth's box, for the sharp features' queries only.
         let sharp = !self.obstacles.feature_vertices.is_empty() || !self.obstacles.feature_edges.is_empty();
-        let near = ws
-            .triangle_box
-            .iter()
-            .enumerate()
-            .filter(|&(t, _)| sharp && (!moved || ws.moved_triangle[t]))
-            .fold(Box3::empty(), |all, (_, b)| all.union(b));
+        let boxes = ws.triangle_box.iter().enumerate().filter(|&(t, _)| !moved || ws.moved_triangle[t]);
+        let near = if sharp { boxes.fold(Box3::empty(), |all, (_, b)| all.union(b)) } else { Box3::empty() };
         if self.self_collision.iter().any(|&s| s) || self.self_collision.len() > 1 {
             match moved {
                 true => moved_pairs(bvh, &ws.triangle_box, &ws.moved_triangle, &mut ws.hits, &mut ws.pairs),

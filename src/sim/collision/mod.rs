@@ -363,12 +363,13 @@ impl CollisionPipeline {
             // checked. That does not prove nothing crosses (the deficit is
             // linearised along the hit normal), so the impact zones still
             // look for crossings.
+            if acted {
+                self.run_hook(after_pass, ResponseStage::Impulses);
+            }
+            report.response += clock.elapsed();
             if !acted {
-                report.response += clock.elapsed();
                 break;
             }
-            self.run_hook(after_pass, ResponseStage::Impulses);
-            report.response += clock.elapsed();
         }
         if !settled {
             (report.zone_rounds, report.unresolved) = self.impact_zones(window, after_pass, &mut report);
