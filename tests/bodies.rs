@@ -202,6 +202,11 @@ fn a_motion_cache_plays_the_body_it_was_made_from() {
     assert!((a.world_vertices(0.0)[0] - a.world_vertices(0.9)[0]).norm() > 0.1);
 }
 
+/// The whole walk: never inside the body or itself, and never snagged. Where
+/// a leg swings through the hem, rigid impact zones once carried a few hem
+/// particles 7 cm with the calf in one step (398 % strain for a frame); such
+/// steps are now retried shorter, and the largest strain stays under 200 %
+/// (156 % measured).
 #[test]
 fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
     let scene = drape::scene::Scene::load(&repo("assets/scenes/skirt_walk.toml")).unwrap();
@@ -209,11 +214,20 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
     let count = scene.garments[0].mesh.vertex_count() as f64;
     let centre = |p: &[Vector3<f64>]| p.iter().sum::<Vector3<f64>>() / count;
     let start = centre(baker.simulator().positions());
+    let mut dragged = 0;
     while baker.frame() < scene.frame_count {
         let record = baker.advance().unwrap_or_else(|e| panic!("{e}"));
         let i = &record.intersections;
         assert_eq!((i.cloth_pairs, i.collider_pairs, i.penetrating_vertices), (0, 0, 0), "frame {}", record.frame);
+        assert!(
+            record.max_strain < 2.0,
+            "frame {}: the hem snagged, {:.0} % strain",
+            record.frame,
+            record.max_strain * 100.0
+        );
+        dragged += record.rollback_causes.dragged;
     }
+    assert!(dragged > 0, "no step was retried for its impact zones: the strain bound does not test them");
     let end = centre(baker.simulator().positions());
     assert!(end.z - start.z > 2.0, "the skirt travels with the body: {:.2} m", end.z - start.z);
 }

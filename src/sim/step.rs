@@ -968,17 +968,27 @@ impl Simulator {
         contacts
     }
 
+    /// Largest stretch of a stretch spring now, (l − l₀) / l₀, unitless (0
+    /// when none is longer than at rest): what [`StepReport::max_strain`]
+    /// reports after a step.
+    pub fn largest_strain(&self) -> f64 {
+        let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
+        parallel::max(stretch.len(), |k| spring_strain(cloth, x, stretch[k]).max(0.0))
+    }
+
     /// Largest stretch (l − l₀) / l₀ and mean |l − l₀| / l₀ over the stretch springs.
     fn strain(&mut self) -> (f64, f64) {
         let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
-        let strain_of = |k: usize| {
-            let s = stretch[k] as usize;
-            let [a, b] = cloth.spring_ends[s];
-            let rest = cloth.rest_length[s];
-            ((x[a as usize] - x[b as usize]).norm() - rest) / rest
-        };
+        let strain_of = |k: usize| spring_strain(cloth, x, stretch[k]);
         let max = parallel::max(stretch.len(), |k| strain_of(k).max(0.0));
         let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| strain_of(k).abs());
         (max, total / stretch.len().max(1) as f64)
     }
+}
+
+/// Strain of spring `spring` at positions `x`, (l − l₀) / l₀, unitless.
+fn spring_strain(cloth: &Cloth, x: &[Vector3<f64>], spring: u32) -> f64 {
+    let [a, b] = cloth.spring_ends[spring as usize];
+    let rest = cloth.rest_length[spring as usize];
+    ((x[a as usize] - x[b as usize]).norm() - rest) / rest
 }

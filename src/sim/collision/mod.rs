@@ -168,6 +168,8 @@ pub struct CollisionReport {
     pub constraint_set: u32,
     /// Rounds of impact zones needed.
     pub zone_rounds: u32,
+    /// Zones that moved cloth with an animated body's skin, over all rounds.
+    pub skin_zones: u32,
     /// Crossings left when the step ends (should be 0).
     pub unresolved: u32,
 }
