@@ -4,10 +4,9 @@
 //! converge, a strain past the blow-up bound, crossings the collision
 //! pipeline could not resolve, or rigid impact zones that moved cloth with a
 //! body's skin and raised the largest strain by more than the zone strain —
-//! is rolled back to the state before it and
-//! retried as two steps of half the length, down to a floor of
-//! `nominal / 2^max_halvings`. After a step succeeds the length doubles again,
-//! back to the nominal step. When even the floor fails, advancing stops with
+//! is rolled back to the state before it and retried as two steps of half
+//! the length, down to a floor of `nominal / 2^max_halvings`. After a step
+//! succeeds the length doubles again, back to the nominal step. When even the floor fails, advancing stops with
 //! the time, the step and the cause, and the simulator keeps the last good
 //! state: a user never sees a NaN or an explosion.
 //!
@@ -88,8 +87,9 @@ pub struct AdaptiveSettings {
     /// Strain past which a step counts as a blow-up, unitless (10 = 1000 %).
     pub blow_up_strain: f64,
     /// The most a step whose rigid impact zones moved cloth with a body's
-    /// skin may raise the cloth's largest strain by, unitless (0.5 = 50 points of strain), while the step has
-    /// been halved fewer than [`Self::zone_halvings`] times.
+    /// skin may raise the cloth's largest strain by, unitless (0.5 = 50
+    /// points of strain), while the step has been halved fewer than
+    /// [`Self::zone_halvings`] times.
     pub zone_strain: f64,
     /// Halvings a step may take to keep its impact zones under
     /// [`Self::zone_strain`] (3: down to 1/8); fewer than `max_halvings`.
@@ -225,7 +225,8 @@ impl Stepper {
 
     /// One step of `h`, the nominal step halved `halvings` times, judged.
     fn attempt(&self, sim: &mut Simulator, h: f64, halvings: u32) -> Result<StepReport, StepFailure> {
-        let before = sim.largest_strain();
+        // Only a body's skin can drag cloth; other scenes skip the sum.
+        let before = sim.has_animated_bodies().then(|| sim.largest_strain());
         let report =
             sim.step(h).map_err(|StepError::NonFinite { particle, .. }| StepFailure::NonFinite { particle })?;
         if !report.solver.converged {
@@ -238,8 +239,11 @@ impl Stepper {
             return Err(StepFailure::Crossings { count: report.collision.unresolved });
         }
         let bound = self.settings.zone_strain;
-        let dragged = report.collision.skin_zones > 0 && report.max_strain - before > bound;
-        if dragged && halvings < self.settings.zone_halvings {
+        if let Some(before) = before
+            && report.collision.skin_zones > 0
+            && report.max_strain - before > bound
+            && halvings < self.settings.zone_halvings
+        {
             return Err(StepFailure::Dragged { before, after: report.max_strain, bound });
         }
         Ok(report)

@@ -968,6 +968,11 @@ impl Simulator {
         contacts
     }
 
+    /// Whether the cloth collides with an animated body (a deforming mesh).
+    pub fn has_animated_bodies(&self) -> bool {
+        self.collision.as_ref().is_some_and(CollisionPipeline::has_animated_bodies)
+    }
+
     /// Largest stretch of a stretch spring now, (l − l₀) / l₀, unitless (0
     /// when none is longer than at rest): what [`StepReport::max_strain`]
     /// reports after a step.

@@ -313,6 +313,12 @@ impl CollisionPipeline {
         (particle.thickness, particle.friction) = (thickness, friction);
     }
 
+    /// Whether an animated body is among the obstacles: only then can a zone
+    /// move cloth with a body's skin ([`CollisionReport::skin_zones`]).
+    pub fn has_animated_bodies(&self) -> bool {
+        self.obstacles.bodies.iter().any(|b| b.animation.is_some())
+    }
+
     /// Copies what the pipeline carries from one step to the next (each
     /// recurring contact's influence, eq. 16) into `into`, reusing its
     /// storage. Restoring it with [`Self::restore_memory`] makes a retried
