@@ -46,7 +46,13 @@ impl Box3 {
 
     /// True when the boxes share a point.
     pub fn overlaps(&self, other: &Box3) -> bool {
-        (0..3).all(|k| self.min[k] <= other.max[k] && other.min[k] <= self.max[k])
+        let (a, b) = (self, other);
+        a.min.x <= b.max.x
+            && b.min.x <= a.max.x
+            && a.min.y <= b.max.y
+            && b.min.y <= a.max.y
+            && a.min.z <= b.max.z
+            && b.min.z <= a.max.z
     }
 
     /// The f32 box containing this one.

@@ -87,11 +87,11 @@ impl CollisionPipeline {
         let shift = ws.shift;
         ws.node_box
             .extend(ws.start[n..].iter().zip(&ws.end[n..]).map(|(a, b)| Box3::empty().with(a).with(&(b - shift))));
+        let obstacle_nodes = &ws.node_box[n..];
+        ws.obstacle_edge_box.clear();
+        ws.obstacle_edge_box.extend(self.obstacles.triangles.iter().map(|tri| edge_boxes(*tri, obstacle_nodes)));
         ws.obstacle_box.clear();
-        ws.obstacle_box.extend(self.obstacles.triangles.iter().map(|tri| {
-            let [a, b, c] = tri.map(|v| ws.node_box[n + v as usize]);
-            a.union(&b).union(&c)
-        }));
+        ws.obstacle_box.extend(ws.obstacle_edge_box.iter().map(|[ab, bc, _]| ab.union(bc)));
         if ws.obstacle_box.is_empty() {
             return;
         }
@@ -110,11 +110,10 @@ impl CollisionPipeline {
         for (i, particle) in self.particles.iter().enumerate() {
             ws.node_box[i] = Box3::empty().with(&ws.start[i]).with(&(ws.end[i] - ws.shift)).grown(particle.thickness);
         }
+        ws.edge_box.clear();
+        ws.edge_box.extend(self.triangles.iter().map(|t| edge_boxes(*t, &ws.node_box)));
         ws.triangle_box.clear();
-        ws.triangle_box.extend(self.triangles.iter().map(|t| {
-            let [a, b, c] = t.map(|v| ws.node_box[v as usize]);
-            a.union(&b).union(&c)
-        }));
+        ws.triangle_box.extend(ws.edge_box.iter().map(|[ab, bc, _]| ab.union(bc)));
         match &mut self.bvh {
             Some(bvh) => bvh.update(&ws.triangle_box),
             None => self.bvh = Some(SweptBvh::new(&ws.triangle_box)),
@@ -195,6 +194,9 @@ impl CollisionPipeline {
             end: &ws.end,
             node_box: &ws.node_box,
             triangle_box: &ws.triangle_box,
+            obstacle_box: &ws.obstacle_box,
+            edge_box: &ws.edge_box,
+            obstacle_edge_box: &ws.obstacle_edge_box,
             kept: &ws.kept,
             detection,
             counting: report.passes == 0 && detection == Detection::Proximity,
@@ -239,6 +241,13 @@ fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved:
     pairs.sort_unstable();
 }
 
+/// The boxes of the edges `k → k + 1` of triangle `tri` whose points have
+/// boxes `node_box`.
+fn edge_boxes(tri: [u32; 3], node_box: &[Box3]) -> [Box3; 3] {
+    let [a, b, c] = tri.map(|v| node_box[v as usize]);
+    [a.union(&b), b.union(&c), c.union(&a)]
+}
+
 /// The mean displacement over the step of the points that go `start` → `end`
 /// (zero for none), m.
 ///
@@ -267,6 +276,19 @@ fn moved_pairs(bvh: &SweptBvh, boxes: &[Box3], moved: &[bool], hits: &mut Vec<u3
     out.sort_unstable();
 }
 
+/// One triangle of a narrow-phase pair: its points and boxes.
+#[derive(Clone, Copy)]
+struct Side<'a> {
+    points: [u32; 3],
+    whole: &'a Box3,
+    edges: &'a [Box3; 3],
+}
+
+/// The points of edge `k → k + 1` of triangle `tri`.
+fn edge(tri: [u32; 3], k: usize) -> [u32; 2] {
+    [tri[k], tri[(k + 1) % 3]]
+}
+
 /// Everything the narrow phase reads.
 struct Narrow<'a> {
     pipeline_triangles: &'a [[u32; 3]],
@@ -278,6 +300,12 @@ struct Narrow<'a> {
     end: &'a [Vector3<f64>],
     node_box: &'a [Box3],
     triangle_box: &'a [Box3],
+    /// Per obstacle triangle, its box over the step.
+    obstacle_box: &'a [Box3],
+    /// Per cloth triangle, the boxes of its edges `k → k + 1`.
+    edge_box: &'a [[Box3; 3]],
+    /// Per obstacle triangle, the boxes of its edges.
+    obstacle_edge_box: &'a [[Box3; 3]],
     kept: &'a [Contact],
     detection: Detection,
     /// Whether to count the tests without ownership too (first detection of
@@ -345,13 +373,18 @@ impl Narrow<'_> {
         }
     }
 
-    /// Edge `e1` against edge `e2`: culled by box and distance, else tested.
-    fn edge_edge(&self, e1: [u32; 2], e2: [u32; 2], found: &mut Vec<Contact>, tests: &mut u64) {
-        if e1.iter().any(|v| e2.contains(v)) {
-            return;
-        }
-        let box_of = |e: [u32; 2]| self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize]);
-        if !box_of(e1).overlaps(&box_of(e2)) {
+    /// Edge `e1` (box `box1`) against edge `e2` (box `box2`): culled by box
+    /// and distance, else tested.
+    fn edge_edge(
+        &self,
+        e1: [u32; 2],
+        box1: &Box3,
+        e2: [u32; 2],
+        box2: &Box3,
+        found: &mut Vec<Contact>,
+        tests: &mut u64,
+    ) {
+        if !box1.overlaps(box2) || e1.iter().any(|v| e2.contains(v)) {
             return;
         }
         let nodes = [e1[0], e1[1], e2[0], e2[1]];
@@ -370,50 +403,61 @@ impl Narrow<'_> {
         }
     }
 
+    /// The box of the edge between points `e`.
+    fn edge_box_of(&self, e: [u32; 2]) -> Box3 {
+        self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize])
+    }
+
     /// Feature pairs of two triangles passing the box test when every vertex
-    /// and edge of both is tested (no representative triangles).
-    fn feature_tests_without_ownership(&self, t1: [u32; 3], box1: &Box3, t2: [u32; 3], box2: &Box3) -> u64 {
-        let box_of = |e: [u32; 2]| self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize]);
-        let vt = |p: u32, tri: [u32; 3], b: &Box3| !tri.contains(&p) && self.node_box[p as usize].overlaps(b);
-        let vertices =
-            t1.iter().filter(|&&p| vt(p, t2, box2)).count() + t2.iter().filter(|&&p| vt(p, t1, box1)).count();
-        let edges = (0..3)
-            .flat_map(|k1| (0..3).map(move |k2| ([t1[k1], t1[(k1 + 1) % 3]], [t2[k2], t2[(k2 + 1) % 3]])))
-            .filter(|(e1, e2)| !e1.iter().any(|v| e2.contains(v)) && box_of(*e1).overlaps(&box_of(*e2)))
-            .count();
-        (vertices + edges) as u64
+    /// and edge of both is tested (no representative triangles): each
+    /// triangle's points against the other's box, and every edge pair.
+    fn feature_tests_without_ownership(&self, first: Side, second: Side) -> u64 {
+        let mut count = 0;
+        for (a, b) in [(&first, &second), (&second, &first)] {
+            for p in a.points {
+                count += u64::from(!b.points.contains(&p) && self.node_box[p as usize].overlaps(b.whole));
+            }
+        }
+        for (k1, box1) in first.edges.iter().enumerate() {
+            for (k2, box2) in second.edges.iter().enumerate() {
+                let (e1, e2) = (edge(first.points, k1), edge(second.points, k2));
+                count += u64::from(box1.overlaps(box2) && !e1.iter().any(|v| e2.contains(v)));
+            }
+        }
+        count
     }
 
     /// Runs one job, appending contacts; counts the feature pairs that pass
     /// the box test, with representative triangles and without.
     fn run(&self, job: Job, found: &mut Vec<Contact>, tests: &mut u64, without: &mut u64) {
         let cloth = |t: u32| self.pipeline_triangles[t as usize];
-        let edge = |tri: [u32; 3], k: usize| [tri[k], tri[(k + 1) % 3]];
         let offset = self.cloth_count as u32;
         match job {
             Job::Cloth(t1, t2) | Job::Mesh(t1, t2) => {
-                let is_mesh = matches!(job, Job::Mesh(..));
-                let tri1 = cloth(t1);
-                let (tri2, owner2, box2) = if is_mesh {
-                    let o = self.obstacles.triangles[t2 as usize].map(|v| v + offset);
-                    let [a, b, c] = o.map(|v| self.node_box[v as usize]);
-                    (o, &self.obstacles.ownership, a.union(&b).union(&c))
+                let (t1, t2) = (t1 as usize, t2 as usize);
+                let first = Side { points: cloth(t1 as u32), whole: &self.triangle_box[t1], edges: &self.edge_box[t1] };
+                let (second, owner2) = if matches!(job, Job::Mesh(..)) {
+                    let points = self.obstacles.triangles[t2].map(|v| v + offset);
+                    let edges = &self.obstacle_edge_box[t2];
+                    (Side { points, whole: &self.obstacle_box[t2], edges }, &self.obstacles.ownership)
                 } else {
-                    (cloth(t2), self.ownership, self.triangle_box[t2 as usize])
+                    let side =
+                        Side { points: cloth(t2 as u32), whole: &self.triangle_box[t2], edges: &self.edge_box[t2] };
+                    (side, self.ownership)
                 };
-                let box1 = self.triangle_box[t1 as usize];
                 if self.counting {
-                    *without += self.feature_tests_without_ownership(tri1, &box1, tri2, &box2);
+                    *without += self.feature_tests_without_ownership(first, second);
                 }
-                for k in self.ownership.vertices(t1 as usize) {
-                    self.vertex_triangle(tri1[k], tri2, &box2, found, tests);
+                for k in self.ownership.vertices(t1) {
+                    self.vertex_triangle(first.points[k], second.points, second.whole, found, tests);
                 }
-                for k in owner2.vertices(t2 as usize) {
-                    self.vertex_triangle(tri2[k], tri1, &box1, found, tests);
+                for k in owner2.vertices(t2) {
+                    self.vertex_triangle(second.points[k], first.points, first.whole, found, tests);
                 }
-                for k1 in self.ownership.edges(t1 as usize) {
-                    for k2 in owner2.edges(t2 as usize) {
-                        self.edge_edge(edge(tri1, k1), edge(tri2, k2), found, tests);
+                for k1 in self.ownership.edges(t1) {
+                    for k2 in owner2.edges(t2) {
+                        let (e1, e2) = (edge(first.points, k1), edge(second.points, k2));
+                        self.edge_edge(e1, &first.edges[k1], e2, &second.edges[k2], found, tests);
                     }
                 }
             }
@@ -431,18 +475,21 @@ impl Narrow<'_> {
                         let tri_box = self.node_box[b as usize].union(&self.node_box[c as usize]);
                         self.vertex_triangle(a, [b, c, d], &tri_box.union(&self.node_box[d as usize]), found, tests);
                     }
-                    ContactKind::EdgeEdge => self.edge_edge([a, b], [c, d], found, tests),
+                    ContactKind::EdgeEdge => {
+                        let (box1, box2) = (self.edge_box_of([a, b]), self.edge_box_of([c, d]));
+                        self.edge_edge([a, b], &box1, [c, d], &box2, found, tests);
+                    }
                 }
             }
             Job::Edge(t, e) => {
                 let obstacle = self.obstacles.feature_edges[e as usize].map(|v| v + offset);
-                let box_of = |e: [u32; 2]| self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize]);
+                let obstacle_box = self.edge_box_of(obstacle);
+                let edges = &self.edge_box[t as usize];
                 if self.counting {
-                    *without +=
-                        (0..3).filter(|&k| box_of(edge(cloth(t), k)).overlaps(&box_of(obstacle))).count() as u64;
+                    *without += edges.iter().filter(|b| b.overlaps(&obstacle_box)).count() as u64;
                 }
                 for k in self.ownership.edges(t as usize) {
-                    self.edge_edge(edge(cloth(t), k), obstacle, found, tests);
+                    self.edge_edge(edge(cloth(t), k), &edges[k], obstacle, &obstacle_box, found, tests);
                 }
             }
         }

@@ -228,8 +228,12 @@ struct Workspace {
     /// Per point (cloth, then obstacles): its box over the step in that frame.
     node_box: Vec<Box3>,
     triangle_box: Vec<Box3>,
+    /// Per cloth triangle: the boxes of its edges `k → k + 1`.
+    edge_box: Vec<[Box3; 3]>,
     /// Per obstacle triangle: its box over the step.
     obstacle_box: Vec<Box3>,
+    /// Per obstacle triangle: the boxes of its edges over the step.
+    obstacle_edge_box: Vec<[Box3; 3]>,
     pairs: Vec<(u32, u32)>,
     /// `(obstacle triangle, cloth triangle)` pairs of a broad phase.
     mesh_pairs: Vec<(u32, u32)>,
