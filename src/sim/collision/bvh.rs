@@ -102,6 +102,20 @@ impl SweptBvh {
         for (i, b) in boxes.iter().enumerate() {
             self.bvh.insert_or_update_partially(b.outward(), i as u32, 0.0);
         }
+        self.refit();
+    }
+
+    /// Replaces the boxes of `leaves` (leaf `i` is `boxes[i]`; the others
+    /// keep theirs) and refits the tree.
+    pub fn update_leaves(&mut self, boxes: &[Box3], leaves: impl Iterator<Item = usize>) {
+        for i in leaves {
+            self.bvh.insert_or_update_partially(boxes[i].outward(), i as u32, 0.0);
+        }
+        self.refit();
+    }
+
+    /// Refits the tree to its leaves' boxes, and now and then optimises it.
+    fn refit(&mut self) {
         self.bvh.refit(&mut self.workspace);
         self.steps += 1;
         if self.steps.is_multiple_of(OPTIMIZE_EVERY) {

@@ -84,6 +84,9 @@ impl CollisionPipeline {
         ws.shift = mean_displacement(&ws.start[..n], &ws.end[..n]);
         ws.node_box.clear();
         ws.node_box.resize(n, Box3::empty());
+        // The cloth's boxes are of the last step: the next detection makes
+        // all of them again.
+        ws.triangle_box.clear();
         let shift = ws.shift;
         ws.node_box
             .extend(ws.start[n..].iter().zip(&ws.end[n..]).map(|(a, b)| Box3::empty().with(a).with(&(b - shift))));
@@ -101,23 +104,59 @@ impl CollisionPipeline {
         }
     }
 
+    /// Brings the swept boxes of the cloth's points, edges and triangles and
+    /// its hierarchy up to date. With `only_moved` (and boxes already made
+    /// this step) only the points that moved since the last detection and
+    /// the workspace's `moved_triangle`s are boxed again: every other path,
+    /// and so every other box, is as it was.
+    fn refit(&mut self, only_moved: bool) {
+        let ws = &mut self.ws;
+        let (start, end, shift) = (&ws.start, &ws.end, ws.shift);
+        let point_box =
+            |i: usize, p: &ParticleCollision| Box3::empty().with(&start[i]).with(&(end[i] - shift)).grown(p.thickness);
+        let bvh = match &mut self.bvh {
+            Some(bvh) if only_moved && ws.triangle_box.len() == self.triangles.len() => bvh,
+            _ => {
+                for (i, particle) in self.particles.iter().enumerate() {
+                    ws.node_box[i] = point_box(i, particle);
+                }
+                ws.edge_box.clear();
+                ws.edge_box.extend(self.triangles.iter().map(|t| edge_boxes(*t, &ws.node_box)));
+                ws.triangle_box.clear();
+                ws.triangle_box.extend(ws.edge_box.iter().map(|[ab, bc, _]| ab.union(bc)));
+                match &mut self.bvh {
+                    Some(bvh) => bvh.update(&ws.triangle_box),
+                    None => self.bvh = Some(SweptBvh::new(&ws.triangle_box)),
+                }
+                return;
+            }
+        };
+        for (i, particle) in self.particles.iter().enumerate().filter(|&(i, _)| ws.moved[i]) {
+            ws.node_box[i] = point_box(i, particle);
+        }
+        let moved_triangles = ws.moved_triangle.iter().enumerate().filter(|&(_, &m)| m).map(|(t, _)| t);
+        for t in moved_triangles.clone() {
+            ws.edge_box[t] = edge_boxes(self.triangles[t], &ws.node_box);
+            let [ab, bc, _] = ws.edge_box[t];
+            ws.triangle_box[t] = ab.union(&bc);
+        }
+        bvh.update_leaves(&ws.triangle_box, moved_triangles);
+    }
+
     /// Boxes, broad phase and narrow phase over `scope`: fills the
     /// workspace's contacts.
     pub(super) fn detect(&mut self, detection: Detection, scope: Scope, report: &mut CollisionReport) {
         let clock = Instant::now();
         let n = self.particles.len();
+        let moved = scope == Scope::Moved;
         let ws = &mut self.ws;
-        for (i, particle) in self.particles.iter().enumerate() {
-            ws.node_box[i] = Box3::empty().with(&ws.start[i]).with(&(ws.end[i] - ws.shift)).grown(particle.thickness);
+        ws.moved_triangle.clear();
+        if moved {
+            let points = &ws.moved;
+            ws.moved_triangle.extend(self.triangles.iter().map(|t| t.iter().any(|&v| points[v as usize])));
         }
-        ws.edge_box.clear();
-        ws.edge_box.extend(self.triangles.iter().map(|t| edge_boxes(*t, &ws.node_box)));
-        ws.triangle_box.clear();
-        ws.triangle_box.extend(ws.edge_box.iter().map(|[ab, bc, _]| ab.union(bc)));
-        match &mut self.bvh {
-            Some(bvh) => bvh.update(&ws.triangle_box),
-            None => self.bvh = Some(SweptBvh::new(&ws.triangle_box)),
-        }
+        self.refit(moved);
+        let ws = &mut self.ws;
         report.refit += clock.elapsed();
 
         let clock = Instant::now();
@@ -127,11 +166,7 @@ impl CollisionPipeline {
         // wanted: the queries start from those triangles (and obstacle parts
         // near them), and give the pairs a full query would, in its order,
         // after the kept contacts' feature pairs.
-        let moved = scope == Scope::Moved;
-        ws.moved_triangle.clear();
         if moved {
-            let points = &ws.moved;
-            ws.moved_triangle.extend(self.triangles.iter().map(|t| t.iter().any(|&v| points[v as usize])));
             ws.jobs.extend((0..ws.kept.len() as u32).map(Job::Again));
         }
         // The (moved) cloth's box, for the sharp features' queries only.

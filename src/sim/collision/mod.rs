@@ -580,7 +580,7 @@ mod tests {
     /// incremental detection finds exactly the contacts (and hits) a full
     /// detection of the same state finds, for both kinds of detection.
     #[test]
-    fn detecting_again_after_a_response_equals_a_full_detection() {
+    fn detecting_again_after_a_response_equals_a_full_detection_and_reboxes_only_what_moved() {
         for detection in [Detection::Proximity, Detection::Crossings] {
             let (mut pipeline, n) = crumpled(true);
             let mut report = CollisionReport::default();
@@ -597,6 +597,11 @@ mod tests {
             let mut full = pipeline.clone();
             full.detect(detection, Scope::All, &mut report);
             pipeline.detect_again(detection, &mut report);
+            // Only the moved points' boxes were made again, and they are all
+            // as a full detection makes them.
+            assert_eq!(pipeline.ws.node_box, full.ws.node_box);
+            assert_eq!(pipeline.ws.edge_box, full.ws.edge_box);
+            assert_eq!(pipeline.ws.triangle_box, full.ws.triangle_box);
             let (again, full) = (contact_set(&pipeline), contact_set(&full));
             assert!(!full.is_empty());
             let only_again: Vec<_> = again.difference(&full).collect();
