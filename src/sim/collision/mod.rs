@@ -227,6 +227,8 @@ struct Workspace {
     shift: Vector3<f64>,
     /// Per point (cloth, then obstacles): its box over the step in that frame.
     node_box: Vec<Box3>,
+    /// Per point: what the narrow phase reads of it, packed.
+    point: Vec<detect::PointState>,
     triangle_box: Vec<Box3>,
     /// Per cloth triangle: the boxes of its edges `k → k + 1`.
     edge_box: Vec<[Box3; 3]>,
