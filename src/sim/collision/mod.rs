@@ -230,12 +230,12 @@ struct Workspace {
     /// Per point: what the narrow phase reads of it, packed.
     point: Vec<detect::PointState>,
     triangle_box: Vec<Box3>,
-    /// Per cloth triangle: the boxes of its edges `k → k + 1`.
-    edge_box: Vec<[Box3; 3]>,
+    /// Per cloth triangle: the boxes of its edges and corners.
+    feature_box: Vec<detect::FeatureBoxes>,
     /// Per obstacle triangle: its box over the step.
     obstacle_box: Vec<Box3>,
-    /// Per obstacle triangle: the boxes of its edges over the step.
-    obstacle_edge_box: Vec<[Box3; 3]>,
+    /// Per obstacle triangle: the boxes of its edges and corners over the step.
+    obstacle_feature_box: Vec<detect::FeatureBoxes>,
     pairs: Vec<(u32, u32)>,
     /// `(obstacle triangle, cloth triangle)` pairs of a broad phase.
     mesh_pairs: Vec<(u32, u32)>,
@@ -602,7 +602,7 @@ mod tests {
             // Only the moved points' boxes were made again, and they are all
             // as a full detection makes them.
             assert_eq!(pipeline.ws.node_box, full.ws.node_box);
-            assert_eq!(pipeline.ws.edge_box, full.ws.edge_box);
+            assert_eq!(pipeline.ws.feature_box, full.ws.feature_box);
             assert_eq!(pipeline.ws.triangle_box, full.ws.triangle_box);
             let (again, full) = (contact_set(&pipeline), contact_set(&full));
             assert!(!full.is_empty());
