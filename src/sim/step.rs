@@ -983,10 +983,9 @@ impl Simulator {
 
     /// Largest stretch (l − l₀) / l₀ and mean |l − l₀| / l₀ over the stretch springs.
     fn strain(&mut self) -> (f64, f64) {
+        let max = self.largest_strain();
         let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
-        let strain_of = |k: usize| spring_strain(cloth, x, stretch[k]);
-        let max = parallel::max(stretch.len(), |k| strain_of(k).max(0.0));
-        let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| strain_of(k).abs());
+        let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| spring_strain(cloth, x, stretch[k]).abs());
         (max, total / stretch.len().max(1) as f64)
     }
 }

@@ -106,10 +106,10 @@ impl CollisionPipeline {
     }
 
     /// Brings the swept boxes of the cloth's points, edges and triangles, the
-    /// points' packed states and the hierarchy up to date. With `only_moved` (and boxes already made
-    /// this step) only the points that moved since the last detection and
-    /// the workspace's `moved_triangle`s are boxed again: every other path,
-    /// and so every other box, is as it was.
+    /// points' packed states and the hierarchy up to date. With `only_moved`
+    /// (and boxes already made this step) only the points that moved since
+    /// the last detection and the workspace's `moved_triangle`s are boxed
+    /// again: every other path, and so every other box, is as it was.
     fn refit(&mut self, only_moved: bool) {
         let ws = &mut self.ws;
         let (start, end, shift) = (&ws.start, &ws.end, ws.shift);
@@ -493,6 +493,11 @@ impl Narrow<'_> {
         }
     }
 
+    /// Cloth triangle `t` as one side of a pair.
+    fn cloth_side(&self, t: usize) -> Side<'_> {
+        Side { points: self.pipeline_triangles[t], whole: &self.triangle_box[t], boxes: &self.feature_box[t] }
+    }
+
     /// The box of the edge between points `e`.
     fn edge_box_of(&self, e: [u32; 2]) -> Box3 {
         self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize])
@@ -525,16 +530,13 @@ impl Narrow<'_> {
         match job {
             Job::Cloth(t1, t2) | Job::Mesh(t1, t2) => {
                 let (t1, t2) = (t1 as usize, t2 as usize);
-                let first =
-                    Side { points: cloth(t1 as u32), whole: &self.triangle_box[t1], boxes: &self.feature_box[t1] };
+                let first = self.cloth_side(t1);
                 let (second, owner2) = if matches!(job, Job::Mesh(..)) {
                     let points = self.obstacles.triangles[t2].map(|v| v + offset);
                     let boxes = &self.obstacle_feature_box[t2];
                     (Side { points, whole: &self.obstacle_box[t2], boxes }, &self.obstacles.ownership)
                 } else {
-                    let side =
-                        Side { points: cloth(t2 as u32), whole: &self.triangle_box[t2], boxes: &self.feature_box[t2] };
-                    (side, self.ownership)
+                    (self.cloth_side(t2), self.ownership)
                 };
                 if self.counting {
                     *without += self.feature_tests_without_ownership(first, second);
