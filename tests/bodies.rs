@@ -205,8 +205,10 @@ fn a_motion_cache_plays_the_body_it_was_made_from() {
 /// The whole walk: never inside the body or itself, and never snagged. Where
 /// a leg swings through the hem, rigid impact zones once carried a few hem
 /// particles 7 cm with the calf in one step (398 % strain for a frame); such
-/// steps are now retried shorter, and the largest strain stays under 200 %
-/// (156 % measured).
+/// steps are retried shorter, and since the strain projections between
+/// collision passes no longer pull back into the body what the impulses
+/// pushed off it, fewer steps end in impact zones at all: the largest strain
+/// stays under 60 % (38 % measured, 156 % before).
 #[test]
 fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
     let scene = drape::scene::Scene::load(&repo("assets/scenes/skirt_walk.toml")).unwrap();
@@ -220,7 +222,7 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
         let i = &record.intersections;
         assert_eq!((i.cloth_pairs, i.collider_pairs, i.penetrating_vertices), (0, 0, 0), "frame {}", record.frame);
         assert!(
-            record.max_strain < 2.0,
+            record.max_strain < 0.6,
             "frame {}: the hem snagged, {:.0} % strain",
             record.frame,
             record.max_strain * 100.0

@@ -27,6 +27,14 @@
 //! limit only pulls) — otherwise a slack edge that was momentarily over its
 //! limit would be held at it, and a cloth at rest would never settle.
 //!
+//! Between collision passes the projection also must not undo what the
+//! pass's impulses did: a particle pushed off an obstacle (the body) is held
+//! along the push's normal, so the limits are met by sliding it and moving
+//! its neighbours rather than by pulling it back into the obstacle's
+//! thickness, which the next pass would push out again. The hold is
+//! one-sided, the same active-set rule as the edges' own: released as soon
+//! as the multipliers would move the particle away from the obstacle.
+//!
 //! [`StrainLimiting::Clamp`] is the cheap per-edge alternative (Provot 1995,
 //! mass-weighted and averaged per particle): every over-long edge is shortened
 //! on its own, over and over. It converges slowly on fine meshes and is kept as
@@ -253,6 +261,8 @@ struct Workspace {
     partials: Vec<f64>,
     /// Positions and velocities kept by [`StrainLimits::project_if_met`].
     saved: Vec<(Vector3<f64>, Vector3<f64>)>,
+    /// Positions and velocities kept by [`StrainLimits::project_if_met_holding`].
+    before_holds: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Whether this projection has a factor of `J W Jᵀ` to precondition with.
     factored: bool,
     /// Whether Jacobi preconditioning was too slow in this projection.
@@ -284,6 +294,12 @@ pub struct StrainLimits {
     direct: DirectSolver,
     /// Whether the projection under way releases pushing edges.
     release: Release,
+    /// Particles the projection under way may not move towards an obstacle
+    /// (see [`StrainLimits::project_if_met_holding`]), with the unit normal
+    /// pointing away from it.
+    holds: Vec<(u32, Vector3<f64>)>,
+    /// The particles' constraints with the holds that still apply, scratch.
+    held: Vec<Constraint>,
 }
 
 impl StrainLimits {
@@ -318,6 +334,8 @@ impl StrainLimits {
             ws: Workspace::default(),
             direct: DirectSolver::default(),
             release: Release::PushingEdges,
+            holds: Vec::new(),
+            held: Vec::new(),
         };
         limits.max_length = limits.max_lengths_for(cloth);
         Some(limits)
@@ -383,6 +401,45 @@ impl StrainLimits {
         self.project_keeping(state, false)
     }
 
+    /// [`Self::project_if_met`] that does not move the particles of `holds`
+    /// towards the obstacles a collision pass just pushed them off: each
+    /// `(particle, n)` may slide across the unit normal `n` (pointing away
+    /// from the obstacle) and move along it, but not against it. A hold is a
+    /// one-sided constraint: a particle is held along `n` until a Newton
+    /// iteration's multipliers would move it along `n`, and is then released.
+    /// Where the limits cannot be met with the holds, the projection without
+    /// them runs instead (its report counts the work of both).
+    pub fn project_if_met_holding(&mut self, state: ProjectedState, holds: &[(u32, Vector3<f64>)]) -> ProjectionReport {
+        if holds.is_empty() {
+            return self.project_if_met(state);
+        }
+        let ProjectedState { x, v, constraints, mass, h } = state;
+        let mut before = std::mem::take(&mut self.ws.before_holds);
+        before.clear();
+        before.extend(x.iter().zip(v.iter()).map(|(x, v)| (*x, *v)));
+        self.holds.clear();
+        self.holds.extend_from_slice(holds);
+        let held = self.project_keeping(ProjectedState { x: &mut *x, v: &mut *v, constraints, mass, h }, false);
+        self.holds.clear();
+        // An edge whose ends the holds keep from moving along it was left
+        // out of the held projection, whatever its strain.
+        let met = !held.abandoned && self.movable_excess(x, constraints, mass) <= STRAIN_TOLERANCE;
+        if !met {
+            for (i, (x0, v0)) in before.iter().enumerate() {
+                (x[i], v[i]) = (*x0, *v0);
+            }
+        }
+        self.ws.before_holds = before;
+        if met {
+            return held;
+        }
+        let mut report = self.project_keeping(ProjectedState { x, v, constraints, mass, h }, false);
+        report.newton_iterations += held.newton_iterations;
+        report.cg_iterations += held.cg_iterations;
+        report.factorizations += held.factorizations;
+        report
+    }
+
     /// Runs the projection on `state`; between collision passes (without
     /// `fallback`) undoes it when it stalls or misses its tolerance.
     fn project_keeping(&mut self, mut state: ProjectedState, fallback: bool) -> ProjectionReport {
@@ -432,11 +489,33 @@ impl StrainLimits {
     /// total squared excess: far from the constraints a full step can
     /// overshoot where the edges turn.
     fn fast_projection(&mut self, state: &mut ProjectedState, report: &mut ProjectionReport) {
+        let mut held = std::mem::take(&mut self.held);
+        held.clear();
+        if !self.holds.is_empty() {
+            held.extend_from_slice(state.constraints);
+            for &(v, n) in &self.holds {
+                held[v as usize] = held[v as usize].held_along(n);
+            }
+        }
+        self.newton_iterations(state, &mut held, report);
+        self.held = held;
+    }
+
+    /// The Newton iterations of [`Self::fast_projection`], with the
+    /// particles' constraints `held` while holds apply (empty otherwise).
+    fn newton_iterations(
+        &mut self,
+        state: &mut ProjectedState,
+        held: &mut [Constraint],
+        report: &mut ProjectionReport,
+    ) {
         let mut stalled = 0;
         let initial = self.squared_excess(state.x);
         let mut latest = initial;
+        let holding = !held.is_empty();
         for _ in 0..=NEWTON_ITERATIONS {
-            report.excess_strain = self.linearise(state);
+            let constraints: &[Constraint] = if holding { held } else { state.constraints };
+            report.excess_strain = self.linearise(state.x, constraints, state.mass);
             if report.excess_strain <= STRAIN_TOLERANCE {
                 return;
             }
@@ -448,31 +527,61 @@ impl StrainLimits {
                 break;
             }
             let before = self.squared_excess(state.x);
-            self.solve_multipliers(state.constraints, state.mass, Linearisation::New, report);
+            self.solve_multipliers(constraints, state.mass, Linearisation::New, report);
             let rounds = if self.release == Release::PushingEdges { RELEASE_ROUNDS } else { 0 };
             for _ in 0..rounds {
                 if !self.release_pushing_edges() {
                     break;
                 }
-                self.solve_multipliers(state.constraints, state.mass, Linearisation::Same, report);
+                self.solve_multipliers(constraints, state.mass, Linearisation::Same, report);
             }
+            if holding {
+                for _ in 0..RELEASE_ROUNDS {
+                    self.gather_active(Compact::Multiplier);
+                    if !self.release_holds(held, state.constraints) {
+                        break;
+                    }
+                    self.solve_multipliers(held, state.mass, Linearisation::Same, report);
+                }
+            }
+            let constraints: &[Constraint] = if holding { held } else { state.constraints };
             report.newton_iterations += 1;
             self.gather_active(Compact::Multiplier);
             let mut step = 1.0;
             let mut after = before;
             for _ in 0..BACKTRACKS {
-                self.move_touched(-step, state);
+                self.move_touched(-step, constraints, state);
                 after = self.squared_excess(state.x);
                 if after < before {
                     break;
                 }
-                self.move_touched(step, state);
+                self.move_touched(step, constraints, state);
                 step *= 0.5;
             }
             stalled = if after > STALL_RATIO * before { stalled + 1 } else { 0 };
             latest = after;
         }
         report.fell_back = true;
+    }
+
+    /// Releases every hold whose particle the multipliers just solved
+    /// would move away from its obstacle (the correction `−W Jᵀ μ` without
+    /// the hold has a positive component along `n`): a hold only keeps a
+    /// particle from moving towards the obstacle. A released particle gets
+    /// its own constraint from `free` back. Returns whether any was released
+    /// (the multipliers must then be solved again).
+    fn release_holds(&mut self, held: &mut [Constraint], free: &[Constraint]) -> bool {
+        let ws = &self.ws;
+        let before = self.holds.len();
+        self.holds.retain(|&(v, n)| {
+            let v = v as usize;
+            let away = ws.is_touched[v] && n.dot(&ws.gathered[v]) < 0.0;
+            if away {
+                held[v] = free[v];
+            }
+            !away
+        });
+        self.holds.len() < before
     }
 
     /// Takes out of the active set every edge within its limit whose
@@ -497,6 +606,17 @@ impl StrainLimits {
         kept < before
     }
 
+    /// Largest strain beyond its limit of an edge at `x` whose ends
+    /// `constraints` let move along it, unitless (what [`Self::linearise`]
+    /// returns, without linearising).
+    fn movable_excess(&self, x: &[Vector3<f64>], constraints: &[Constraint], mass: &[f64]) -> f64 {
+        let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
+        parallel::max(ends.len(), |e| {
+            let edge = edge_state(x, constraints, mass, ends[e], max_length[e]);
+            if is_movable(&edge, ends[e], mass) { (edge.violation / rest[e]).max(0.0) } else { 0.0 }
+        })
+    }
+
     /// `Σ_e max(0, C_e / L_e)²` over every edge: what a Newton step must reduce.
     fn squared_excess(&mut self, x: &[Vector3<f64>]) -> f64 {
         let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
@@ -510,7 +630,7 @@ impl StrainLimits {
     /// Per-edge clamping sweeps until the strain is within tolerance.
     fn clamp(&mut self, state: &mut ProjectedState, report: &mut ProjectionReport) {
         for _ in 0..CLAMP_SWEEPS {
-            report.excess_strain = self.linearise(state);
+            report.excess_strain = self.linearise(state.x, state.constraints, state.mass);
             if report.excess_strain <= STRAIN_TOLERANCE {
                 return;
             }
@@ -533,23 +653,11 @@ impl StrainLimits {
     /// ([`Release::Never`]): then an edge leaves once it is further from its
     /// limit than that. Returns the largest strain beyond the limit among
     /// movable edges.
-    fn linearise(&mut self, state: &ProjectedState) -> f64 {
-        let (x, constraints, mass) = (&*state.x, state.constraints, state.mass);
+    fn linearise(&mut self, x: &[Vector3<f64>], constraints: &[Constraint], mass: &[f64]) -> f64 {
         let ws = &mut self.ws;
         let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
-        let weight = |v: u32, d: &Vector3<f64>| constraints[v as usize].filter(*d).dot(d) / mass[v as usize];
-        par_each(&mut ws.edges, |e, state| {
-            let [a, b] = ends[e];
-            let edge = x[a as usize] - x[b as usize];
-            let length = edge.norm();
-            let direction = if length > 0.0 { edge / length } else { Vector3::zeros() };
-            let diagonal = weight(a, &direction) + weight(b, &direction);
-            *state = EdgeState { direction, violation: length - max_length[e], diagonal };
-        });
-        let movable = |e: usize| {
-            let [a, b] = ends[e];
-            ws.edges[e].diagonal > 1e-12 * (1.0 / mass[a as usize] + 1.0 / mass[b as usize])
-        };
+        par_each(&mut ws.edges, |e, state| *state = edge_state(x, constraints, mass, ends[e], max_length[e]));
+        let movable = |e: usize| is_movable(&ws.edges[e], ends[e], mass);
         let holding = self.release == Release::Never;
         let mut dropped = false;
         for e in 0..ends.len() {
@@ -748,11 +856,11 @@ impl StrainLimits {
     }
 
     /// `x += scale · W gathered`, `v += scale · W gathered / h` on the touched particles.
-    fn move_touched(&mut self, scale: f64, state: &mut ProjectedState) {
+    fn move_touched(&mut self, scale: f64, constraints: &[Constraint], state: &mut ProjectedState) {
         let ws = &self.ws;
         for &v in &ws.touched {
             let v = v as usize;
-            let delta = state.constraints[v].filter(ws.gathered[v]) * (scale / state.mass[v]);
+            let delta = constraints[v].filter(ws.gathered[v]) * (scale / state.mass[v]);
             state.x[v] += delta;
             state.v[v] += delta / state.h;
         }
@@ -823,6 +931,28 @@ enum Compact {
 }
 
 /// `p · q`, in order.
+/// Edge `[a, b]` with maximal length `max_length` (m) linearised at `x`.
+fn edge_state(
+    x: &[Vector3<f64>],
+    constraints: &[Constraint],
+    mass: &[f64],
+    [a, b]: [u32; 2],
+    max_length: f64,
+) -> EdgeState {
+    let weight = |v: u32, d: &Vector3<f64>| constraints[v as usize].filter(*d).dot(d) / mass[v as usize];
+    let edge = x[a as usize] - x[b as usize];
+    let length = edge.norm();
+    let direction = if length > 0.0 { edge / length } else { Vector3::zeros() };
+    let diagonal = weight(a, &direction) + weight(b, &direction);
+    EdgeState { direction, violation: length - max_length, diagonal }
+}
+
+/// Whether `edge`'s ends can move along it (its `J W Jᵀ` diagonal is more
+/// than round-off of its ends' inverse masses).
+fn is_movable(edge: &EdgeState, [a, b]: [u32; 2], mass: &[f64]) -> bool {
+    edge.diagonal > 1e-12 * (1.0 / mass[a as usize] + 1.0 / mass[b as usize])
+}
+
 fn dot(p: &[f64], q: &[f64]) -> f64 {
     p.iter().zip(q).map(|(a, b)| a * b).sum()
 }
@@ -916,6 +1046,75 @@ mod tests {
         }
         assert!(strains(&cloth, &x).iter().all(|&s| s <= 0.01 + STRAIN_TOLERANCE), "{:?}", strains(&cloth, &x));
         assert_ne!(x[1], start_x[1]);
+    }
+
+    /// The 2 × 2 cloth of the first test with edges 0-1 and 2-3 at 120 %,
+    /// projected between passes with `holds`: the end positions, the start
+    /// and the report.
+    fn project_holding(
+        holds: &[(u32, Vector3<f64>)],
+        constraints: &[Constraint; 4],
+    ) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>, ProjectionReport, Cloth) {
+        let cloth = Cloth::new([(&generate::grid(1.0, 2), cotton())]);
+        let mut x = cloth.rest_positions.clone();
+        x[1] += Vector3::new(0.2, 0.0, 0.0);
+        x[3] += Vector3::new(0.2, 0.0, 0.0);
+        let start = x.clone();
+        let mut v = vec![Vector3::zeros(); 4];
+        let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
+        let state = ProjectedState { x: &mut x, v: &mut v, constraints, mass: &cloth.mass, h: 0.01 };
+        let report = limits.project_if_met_holding(state, holds);
+        (x, start, report, cloth)
+    }
+
+    /// Particles 1 and 3, pushed off an obstacle on their −x side, are not
+    /// pulled back towards it: the other two come to them instead.
+    #[test]
+    fn a_held_particle_is_not_moved_back_towards_its_obstacle() {
+        let away = Vector3::x();
+        let (x, start, report, cloth) = project_holding(&[(1, away), (3, away)], &[Constraint::Free; 4]);
+        assert!(!report.abandoned, "{report:?}");
+        assert!(strains(&cloth, &x).iter().all(|&s| s <= 0.01 + STRAIN_TOLERANCE), "{:?}", strains(&cloth, &x));
+        for i in [1, 3] {
+            assert!((x[i] - start[i]).dot(&away) >= -1e-12, "particle {i} moved back: {}", x[i] - start[i]);
+        }
+        for i in [0, 2] {
+            assert!((x[i] - start[i]).x > 0.15, "particle {i} closes the gap: {}", x[i] - start[i]);
+        }
+    }
+
+    /// A hold is one-sided: particles 0 and 2, pushed off an obstacle on
+    /// their −x side, may still move away from it, as the limits ask; they
+    /// are released before the first move, so every particle ends where the
+    /// projection without holds puts it.
+    #[test]
+    fn a_held_particle_moves_away_from_its_obstacle_when_the_limits_ask() {
+        let away = Vector3::x();
+        let (x, start, report, cloth) = project_holding(&[(0, away), (2, away)], &[Constraint::Free; 4]);
+        let (free, _, _, _) = project_holding(&[], &[Constraint::Free; 4]);
+        assert!(!report.abandoned, "{report:?}");
+        assert!(strains(&cloth, &x).iter().all(|&s| s <= 0.01 + STRAIN_TOLERANCE));
+        for i in [0, 2] {
+            assert!((x[i] - start[i]).dot(&away) > 0.05, "particle {i} is released: {}", x[i] - start[i]);
+        }
+        for i in 0..4 {
+            assert!((x[i] - free[i]).norm() < 1e-12, "particle {i}: {} against {}", x[i], free[i]);
+        }
+    }
+
+    /// Where the limits cannot be met with the holds (particles 0 and 2
+    /// pinned, 1 and 3 held against moving back), the projection without
+    /// them runs instead: the limits are met, by moving 1 and 3 back.
+    #[test]
+    fn limits_that_the_holds_make_unreachable_are_met_without_them() {
+        let away = Vector3::x();
+        let pinned = [Constraint::Fixed, Constraint::Free, Constraint::Fixed, Constraint::Free];
+        let (x, start, report, cloth) = project_holding(&[(1, away), (3, away)], &pinned);
+        assert!(!report.abandoned, "{report:?}");
+        assert!(strains(&cloth, &x).iter().all(|&s| s <= 0.01 + STRAIN_TOLERANCE));
+        for i in [1, 3] {
+            assert!((x[i] - start[i]).x < -0.15, "particle {i} moves back: {}", x[i] - start[i]);
+        }
     }
 
     #[test]

@@ -41,6 +41,16 @@ impl Constraint {
         }
     }
 
+    /// This constraint with motion along unit normal `n` taken away too: a
+    /// free particle keeps the plane across `n`; one already held along
+    /// another normal, or fixed, is fixed.
+    pub fn held_along(self, n: Vector3<f64>) -> Constraint {
+        match self {
+            Constraint::Free => Constraint::Normal(n),
+            Constraint::Normal(_) | Constraint::Fixed => Constraint::Fixed,
+        }
+    }
+
     /// Projects `v` onto the directions the solve may change.
     pub fn filter(&self, v: Vector3<f64>) -> Vector3<f64> {
         match self {

@@ -65,6 +65,11 @@ const CONTACT_PASSES: u32 = 4;
 /// thickness over the step does not call for another solve.
 const RESOLVE_SHIFT: f64 = 0.5;
 
+/// A particle whose pushes off mesh colliders in one pass sum to a normal shorter
+/// than this (unitless: each push counts its unit normal times the particle's
+/// share of the contact) was pushed both ways, and is not held between passes.
+const PUSH_SUM_MIN: f64 = 1e-6;
+
 /// A particle held by the scene (a constraint of PAPER eq. 1: its position is
 /// prescribed, the solve keeps its row fixed).
 #[derive(Clone, Debug, PartialEq)]
@@ -414,6 +419,9 @@ struct Workspace {
     /// End positions before a strain projection inside the collision
     /// response, to see which particles it moved.
     before_projection: Vec<Vector3<f64>>,
+    /// The particles the last impulse pass pushed off a mesh collider, with
+    /// the unit normal away from it, for the projection after it.
+    holds: Vec<(u32, Vector3<f64>)>,
     contacts: Vec<u32>,
     partials: Vec<f64>,
 }
@@ -789,6 +797,7 @@ impl Simulator {
             let paths = ColliderPaths::new(&self.x, &self.fixed, &self.surfaces, &self.colliders, window);
             let (contacts, resting_on) = (&mut self.ws.contacts, &mut self.resting_on);
             let before_projection = &mut self.ws.before_projection;
+            let holds = &mut self.ws.holds;
             let mut after_pass = |pass: PassState| {
                 let mut projected = false;
                 before_projection.clear();
@@ -798,8 +807,15 @@ impl Simulator {
                     let gave_up = projection.abandoned || projection.stalled || projection.fell_back;
                     if !gave_up && limits.excess_strain(pass.end) > STRAIN_TOLERANCE {
                         before_projection.extend_from_slice(pass.end);
+                        holds.clear();
+                        holds.extend(
+                            pass.pushed_off
+                                .iter()
+                                .enumerate()
+                                .filter_map(|(i, n)| n.try_normalize(PUSH_SUM_MIN).map(|n| (i as u32, n))),
+                        );
                         let state = ProjectedState { x: pass.end, v: pass.velocity, constraints, mass, h };
-                        let report = limits.project_if_met(state);
+                        let report = limits.project_if_met_holding(state, holds);
                         projection.add(&report);
                         projected = !report.abandoned;
                     }

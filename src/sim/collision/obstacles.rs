@@ -139,6 +139,9 @@ pub struct Obstacles {
     pub feature_vertices: Vec<u32>,
     /// The bodies the vertices belong to, analytic colliders first then meshes.
     pub bodies: Vec<Body>,
+    /// Index of the first vertex of a triangle mesh: the vertices before it
+    /// are analytic colliders' features.
+    pub first_mesh_vertex: u32,
 }
 
 impl Obstacles {
@@ -170,6 +173,7 @@ impl Obstacles {
             o.feature_vertices.extend(base..o.local.len() as u32);
             o.feature_edges.extend(edges.iter().map(|e| e.map(|v| v + base)));
         }
+        o.first_mesh_vertex = o.local.len() as u32;
         for mesh in meshes {
             let index = o.bodies.len() as u32;
             let base = o.local.len() as u32;
