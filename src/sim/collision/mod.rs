@@ -545,7 +545,7 @@ mod tests {
     /// A cloth fine enough that no curved collider needs surface features.
     const FINE_CLOTH: ClothScale = ClothScale { longest_edge_m: 0.01, thinnest_m: THICKNESS };
     use super::*;
-    use crate::mesh::generate;
+    use crate::mesh::{TriMesh, generate};
     use crate::sim::colliders::{Collider, Shape};
     use crate::sim::contact::StepWindow;
 
@@ -744,6 +744,28 @@ mod tests {
         assert!((a - b).abs() <= 0.01 * a, "{a} tests at rest, {b} carried");
     }
 
+    /// A 1.2 m square floor mesh 4 mm below a grid cloth at rest.
+    fn floor_below() -> MeshCollider {
+        let floor = generate::grid(1.2, 23);
+        MeshCollider {
+            name: "floor".into(),
+            vertices: floor.positions,
+            triangles: floor.triangles,
+            placement: Placement { rest_pose: Isometry3::translation(0.05, -0.004, 0.0), motion: None },
+            friction: None,
+            animation: None,
+        }
+    }
+
+    /// The pipeline of cloth `mesh`, without self-collision, against `obstacles`.
+    fn without_self_collision(mesh: TriMesh, obstacles: Obstacles) -> CollisionPipeline {
+        let particles =
+            vec![ParticleCollision { thickness: THICKNESS, friction: 0.3, pinned: None }; mesh.positions.len()];
+        let count = mesh.triangles.len();
+        CollisionPipeline::new(mesh.triangles, vec![0; count], vec![false], particles, obstacles, Default::default())
+            .unwrap()
+    }
+
     /// The mesh colliders' hierarchy and the cloth's, traversed together,
     /// give exactly the (obstacle, cloth) triangle pairs whose boxes
     /// overlap; after a response, the moved cloth triangles' queries give
@@ -751,31 +773,11 @@ mod tests {
     #[test]
     fn mesh_collider_pairs_are_every_overlapping_pair() {
         let grid = generate::grid(1.0, 16);
-        let floor = generate::grid(1.2, 23);
         let start = grid.positions.clone();
         let end: Vec<Vector3<f64>> =
             start.iter().enumerate().map(|(i, p)| p + Vector3::from_fn(|k, _| 0.006 * wobble(i, k))).collect();
         let mut velocity = vec![Vector3::zeros(); start.len()];
-        let floor = MeshCollider {
-            name: "floor".into(),
-            vertices: floor.positions,
-            triangles: floor.triangles,
-            placement: Placement { rest_pose: Isometry3::translation(0.05, -0.004, 0.0), motion: None },
-            friction: None,
-            animation: None,
-        };
-        let particles = vec![ParticleCollision { thickness: THICKNESS, friction: 0.3, pinned: None }; start.len()];
-        let obstacles = Obstacles::new(&[], &[floor], FINE_CLOTH);
-        let count = grid.triangles.len();
-        let mut pipeline = CollisionPipeline::new(
-            grid.triangles,
-            vec![0; count],
-            vec![false],
-            particles,
-            obstacles,
-            Default::default(),
-        )
-        .unwrap();
+        let mut pipeline = without_self_collision(grid, Obstacles::new(&[], &[floor_below()], FINE_CLOTH));
         let mass = vec![1e-3; start.len()];
         let cloth = ClothState { start: &start, end: &mut end.clone(), velocity: &mut velocity, mass: &mass };
         pipeline.load(&cloth, StepWindow { t0: 0.0, t1: 0.01 });
@@ -808,18 +810,7 @@ mod tests {
         let start = grid.positions.clone();
         let mut end: Vec<Vector3<f64>> = start.iter().map(|p| p - Vector3::new(0.0, 0.01, 0.0)).collect();
         let mut velocity = vec![Vector3::new(0.0, -1.0, 0.0); start.len()];
-        let particles = vec![ParticleCollision { thickness: THICKNESS, friction: 0.3, pinned: None }; start.len()];
-        let obstacles = Obstacles::new(analytic, meshes, FINE_CLOTH);
-        let count = grid.triangles.len();
-        let mut pipeline = CollisionPipeline::new(
-            grid.triangles,
-            vec![0; count],
-            vec![false],
-            particles,
-            obstacles,
-            Default::default(),
-        )
-        .unwrap();
+        let mut pipeline = without_self_collision(grid, Obstacles::new(analytic, meshes, FINE_CLOTH));
         let mass = vec![1e-3; start.len()];
         let mut first_pass = None;
         let mut hook = |pass: PassState| {
@@ -839,16 +830,7 @@ mod tests {
     /// the cloth wraps, do not count.
     #[test]
     fn the_hook_sees_what_was_pushed_off_a_mesh_and_which_way() {
-        let floor = generate::grid(1.2, 23);
-        let floor = MeshCollider {
-            name: "floor".into(),
-            vertices: floor.positions,
-            triangles: floor.triangles,
-            placement: Placement { rest_pose: Isometry3::translation(0.05, -0.004, 0.0), motion: None },
-            friction: None,
-            animation: None,
-        };
-        let (pushed_off, moved) = first_pass_pushes(&[], &[floor]);
+        let (pushed_off, moved) = first_pass_pushes(&[], &[floor_below()]);
         for (i, n) in pushed_off.iter().enumerate() {
             assert!(moved[i] && n.normalize().y > 0.99, "particle {i} falls through the floor: {n}");
         }
