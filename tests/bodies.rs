@@ -204,11 +204,11 @@ fn a_motion_cache_plays_the_body_it_was_made_from() {
 
 /// The whole walk: never inside the body or itself, and never snagged. Where
 /// a leg swings through the hem, rigid impact zones once carried a few hem
-/// particles 7 cm with the calf in one step (398 % strain for a frame); such
-/// steps are retried shorter, and since the strain projections between
-/// collision passes no longer pull back into the body what the impulses
-/// pushed off it, fewer steps end in impact zones at all: the largest strain
-/// stays under 60 % (38 % measured, 156 % before).
+/// particles 7 cm with the calf in one step (398 % strain for a frame). Since
+/// the strain projections between collision passes no longer pull back into
+/// the body what the impulses pushed off it, the passes resolve those
+/// contacts and no step ends in impact zones: the largest strain stays under
+/// 45 % (31 % measured, 156 % before).
 #[test]
 fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
     let scene = drape::scene::Scene::load(&repo("assets/scenes/skirt_walk.toml")).unwrap();
@@ -216,22 +216,40 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
     let count = scene.garments[0].mesh.vertex_count() as f64;
     let centre = |p: &[Vector3<f64>]| p.iter().sum::<Vector3<f64>>() / count;
     let start = centre(baker.simulator().positions());
-    let mut dragged = 0;
     while baker.frame() < scene.frame_count {
         let record = baker.advance().unwrap_or_else(|e| panic!("{e}"));
         let i = &record.intersections;
         assert_eq!((i.cloth_pairs, i.collider_pairs, i.penetrating_vertices), (0, 0, 0), "frame {}", record.frame);
         assert!(
-            record.max_strain < 0.6,
+            record.max_strain < 0.45,
             "frame {}: the hem snagged, {:.0} % strain",
             record.frame,
             record.max_strain * 100.0
         );
+    }
+    let end = centre(baker.simulator().positions());
+    assert!(end.z - start.z > 2.0, "the skirt travels with the body: {:.2} m", end.z - start.z);
+}
+
+/// The walk played three times as fast (SCENES.md's `fast_body`): the skirt
+/// stays outside the body at every frame end. Here legs still cross the
+/// hem faster than the impulse passes resolve it, so some steps end in
+/// rigid impact zones that carry hem particles with the skin; those steps
+/// are retried shorter, which keeps the largest strain under 80 % (54 %
+/// measured).
+#[test]
+fn fast_body_keeps_the_skirt_outside_the_body_and_retries_the_steps_its_zones_drag() {
+    let scene = drape::scene::Scene::load(&repo("assets/scenes/fast_body.toml")).unwrap();
+    let mut baker = drape::bake::Baker::new(&scene).unwrap();
+    let mut dragged = 0;
+    while baker.frame() < scene.frame_count {
+        let record = baker.advance().unwrap_or_else(|e| panic!("{e}"));
+        let i = &record.intersections;
+        assert_eq!((i.cloth_pairs, i.collider_pairs, i.penetrating_vertices), (0, 0, 0), "frame {}", record.frame);
+        assert!(record.max_strain < 0.8, "frame {}: {:.0} % strain", record.frame, record.max_strain * 100.0);
         dragged += record.rollback_causes.dragged;
     }
     assert!(dragged > 0, "no step was retried for its impact zones: the strain bound does not test them");
-    let end = centre(baker.simulator().positions());
-    assert!(end.z - start.z > 2.0, "the skirt travels with the body: {:.2} m", end.z - start.z);
 }
 
 #[test]

@@ -157,6 +157,10 @@ pub struct ProjectionReport {
     /// Whether the projection was undone: between collision passes
     /// ([`StrainLimits::project_if_met`]) it stalled or missed its tolerance.
     pub abandoned: bool,
+    /// Whether a projection with holds ([`StrainLimits::project_holding`])
+    /// kept a result short of the limits (its Newton iterations ran out or
+    /// stalled, or the holds immobilised an edge over its limit).
+    pub partial: bool,
 }
 
 impl ProjectionReport {
@@ -172,6 +176,7 @@ impl ProjectionReport {
         self.fell_back |= later.fell_back;
         self.stalled |= later.stalled;
         self.abandoned |= later.abandoned;
+        self.partial |= later.partial;
     }
 }
 
@@ -261,8 +266,6 @@ struct Workspace {
     partials: Vec<f64>,
     /// Positions and velocities kept by [`StrainLimits::project_if_met`].
     saved: Vec<(Vector3<f64>, Vector3<f64>)>,
-    /// Positions and velocities kept by [`StrainLimits::project_if_met_holding`].
-    before_holds: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Whether this projection has a factor of `J W Jᵀ` to precondition with.
     factored: bool,
     /// Whether Jacobi preconditioning was too slow in this projection.
@@ -295,7 +298,7 @@ pub struct StrainLimits {
     /// Whether the projection under way releases pushing edges.
     release: Release,
     /// Particles the projection under way may not move towards an obstacle
-    /// (see [`StrainLimits::project_if_met_holding`]), with the unit normal
+    /// (see [`StrainLimits::project_holding`]), with the unit normal
     /// pointing away from it.
     holds: Vec<(u32, Vector3<f64>)>,
     /// The particles' constraints with the holds that still apply, scratch.
@@ -401,42 +404,36 @@ impl StrainLimits {
         self.project_keeping(state, false)
     }
 
-    /// [`Self::project_if_met`] that does not move the particles of `holds`
-    /// towards the obstacles a collision pass just pushed them off: each
-    /// `(particle, n)` may slide across the unit normal `n` (pointing away
-    /// from the obstacle) and move along it, but not against it. A hold is a
-    /// one-sided constraint: a particle is held along `n` until a Newton
-    /// iteration's multipliers would move it along `n`, and is then released.
-    /// Where the limits cannot be met with the holds, the projection without
-    /// them runs instead (its report counts the work of both).
-    pub fn project_if_met_holding(&mut self, state: ProjectedState, holds: &[(u32, Vector3<f64>)]) -> ProjectionReport {
+    /// The projection between collision passes that does not move the
+    /// particles of `holds` towards the obstacles the pass just pushed them
+    /// off: each `(particle, n)` may slide across the unit normal `n`
+    /// (pointing away from the obstacle) and move along it, but not against
+    /// it. A hold is a one-sided constraint: a particle is held along `n`
+    /// until a Newton iteration's multipliers would move it along `n`, and is
+    /// then released. Without holds, this is [`Self::project_if_met`].
+    ///
+    /// Unlike that, the result is kept when it falls short of the limits
+    /// (`partial`): each Newton iteration lowered the total squared excess
+    /// and none moved a held particle towards its obstacle, so a partial
+    /// answer does not fight the impulses, and what is left is for the next
+    /// pass's projection or the next step's. (Undoing it and projecting
+    /// without the holds meets the limits by pulling the cloth back into the
+    /// body, which the next pass pushes out again: measured on `skirt_walk`,
+    /// a mean frame of 122-125 ms against 93-97 ms, and 6 steps rolled back
+    /// against none.)
+    pub fn project_holding(&mut self, mut state: ProjectedState, holds: &[(u32, Vector3<f64>)]) -> ProjectionReport {
         if holds.is_empty() {
             return self.project_if_met(state);
         }
-        let ProjectedState { x, v, constraints, mass, h } = state;
-        let mut before = std::mem::take(&mut self.ws.before_holds);
-        before.clear();
-        before.extend(x.iter().zip(v.iter()).map(|(x, v)| (*x, *v)));
         self.holds.clear();
         self.holds.extend_from_slice(holds);
-        let held = self.project_keeping(ProjectedState { x: &mut *x, v: &mut *v, constraints, mass, h }, false);
+        self.release = Release::Never;
+        let mut report = self.run(&mut state, false);
         self.holds.clear();
-        // An edge whose ends the holds keep from moving along it was left
-        // out of the held projection, whatever its strain.
-        let met = !held.abandoned && self.movable_excess(x, constraints, mass) <= STRAIN_TOLERANCE;
-        if !met {
-            for (i, (x0, v0)) in before.iter().enumerate() {
-                (x[i], v[i]) = (*x0, *v0);
-            }
-        }
-        self.ws.before_holds = before;
-        if met {
-            return held;
-        }
-        let mut report = self.project_keeping(ProjectedState { x, v, constraints, mass, h }, false);
-        report.newton_iterations += held.newton_iterations;
-        report.cg_iterations += held.cg_iterations;
-        report.factorizations += held.factorizations;
+        // The holds' own excess leaves out the edges they immobilised.
+        report.excess_strain = self.movable_excess(state.x, state.constraints, state.mass);
+        report.partial = report.excess_strain > STRAIN_TOLERANCE;
+        (report.fell_back, report.stalled) = (false, false);
         report
     }
 
@@ -1063,7 +1060,7 @@ mod tests {
         let mut v = vec![Vector3::zeros(); 4];
         let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
         let state = ProjectedState { x: &mut x, v: &mut v, constraints, mass: &cloth.mass, h: 0.01 };
-        let report = limits.project_if_met_holding(state, holds);
+        let report = limits.project_holding(state, holds);
         (x, start, report, cloth)
     }
 
@@ -1103,17 +1100,45 @@ mod tests {
     }
 
     /// Where the limits cannot be met with the holds (particles 0 and 2
-    /// pinned, 1 and 3 held against moving back), the projection without
-    /// them runs instead: the limits are met, by moving 1 and 3 back.
+    /// pinned, 1 and 3 held against moving back), nothing is pulled back
+    /// towards the obstacle: the result is kept short of the limits, and
+    /// says so.
     #[test]
-    fn limits_that_the_holds_make_unreachable_are_met_without_them() {
+    fn limits_that_the_holds_make_unreachable_are_left_without_moving_a_held_particle_back() {
         let away = Vector3::x();
         let pinned = [Constraint::Fixed, Constraint::Free, Constraint::Fixed, Constraint::Free];
         let (x, start, report, cloth) = project_holding(&[(1, away), (3, away)], &pinned);
-        assert!(!report.abandoned, "{report:?}");
-        assert!(strains(&cloth, &x).iter().all(|&s| s <= 0.01 + STRAIN_TOLERANCE));
-        for i in [1, 3] {
-            assert!((x[i] - start[i]).x < -0.15, "particle {i} moves back: {}", x[i] - start[i]);
+        assert!(report.partial && !report.abandoned, "{report:?}");
+        assert!((report.excess_strain - 0.19).abs() < 1e-9, "{report:?}");
+        for i in 0..4 {
+            assert!((x[i] - start[i]).dot(&away) >= -1e-12, "particle {i} moved back: {}", x[i] - start[i]);
+        }
+        assert!(strains(&cloth, &x).iter().all(|&s| s <= 0.2 + 1e-12), "{:?}", strains(&cloth, &x));
+    }
+
+    /// A held projection that cannot meet the limits (the wrung tube of
+    /// [`a_stalled_projection_keeps_what_it_gained`], a third of its
+    /// particles held against moving inwards) keeps every Newton iteration it
+    /// made: the total squared excess is lower than at the start, and no held
+    /// particle moved towards its obstacle.
+    #[test]
+    fn a_held_projection_short_of_the_limits_keeps_what_it_gained() {
+        let (cloth, mut x, constraints) = wrung_tube(120.0);
+        let start = x.clone();
+        let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
+        let before = limits.squared_excess(&x);
+        let holds: Vec<(u32, Vector3<f64>)> = (0..x.len() as u32)
+            .step_by(3)
+            .map(|i| (i, Vector3::new(0.0, x[i as usize].y, x[i as usize].z).normalize()))
+            .collect();
+        let mut v = vec![Vector3::zeros(); x.len()];
+        let state = ProjectedState { x: &mut x, v: &mut v, constraints: &constraints, mass: &cloth.mass, h: 0.01 };
+        let report = limits.project_holding(state, &holds);
+        assert!(report.partial && report.newton_iterations > 0, "{report:?}");
+        assert!(limits.squared_excess(&x) < before, "{} against {before}", limits.squared_excess(&x));
+        for &(i, n) in &holds {
+            let i = i as usize;
+            assert!((x[i] - start[i]).dot(&n) >= -1e-9, "particle {i} moved back: {}", x[i] - start[i]);
         }
     }
 

@@ -815,7 +815,7 @@ impl Simulator {
                                 .filter_map(|(i, n)| n.try_normalize(PUSH_SUM_MIN).map(|n| (i as u32, n))),
                         );
                         let state = ProjectedState { x: pass.end, v: pass.velocity, constraints, mass, h };
-                        let report = limits.project_if_met_holding(state, holds);
+                        let report = limits.project_holding(state, holds);
                         projection.add(&report);
                         projected = !report.abandoned;
                     }
