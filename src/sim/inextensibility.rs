@@ -33,7 +33,9 @@
 //! its neighbours rather than by pulling it back into the obstacle's
 //! thickness, which the next pass would push out again. The hold is
 //! one-sided, the same active-set rule as the edges' own: released as soon
-//! as the multipliers would move the particle away from the obstacle.
+//! as the multipliers would move the particle away from the obstacle. Where
+//! the holds leave the limits unmet, what the projection reached is kept
+//! (it never moves a held particle back), and the next pass goes on from it.
 //!
 //! [`StrainLimiting::Clamp`] is the cheap per-edge alternative (Provot 1995,
 //! mass-weighted and averaged per particle): every over-long edge is shortened
@@ -927,7 +929,6 @@ enum Compact {
     Multiplier,
 }
 
-/// `p · q`, in order.
 /// Edge `[a, b]` with maximal length `max_length` (m) linearised at `x`.
 fn edge_state(
     x: &[Vector3<f64>],
@@ -950,6 +951,7 @@ fn is_movable(edge: &EdgeState, [a, b]: [u32; 2], mass: &[f64]) -> bool {
     edge.diagonal > 1e-12 * (1.0 / mass[a as usize] + 1.0 / mass[b as usize])
 }
 
+/// `p · q`, in order.
 fn dot(p: &[f64], q: &[f64]) -> f64 {
     p.iter().zip(q).map(|(a, b)| a * b).sum()
 }
