@@ -32,7 +32,7 @@ use super::colliders::Collider;
 use super::pcg::Constraint;
 
 /// One step's timing, for contact processing.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StepWindow {
     /// Start of the step, s.
     pub t0: f64,

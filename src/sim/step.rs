@@ -171,14 +171,17 @@ pub struct StageTimings {
     pub springs: Duration,
     /// Matrix and right-hand side.
     pub assembly: Duration,
-    /// Linear solves (with contact passes).
+    /// Linear solves (with contact passes). The obstacles' placement,
+    /// boxes and hierarchy for the step are made on another thread
+    /// meanwhile, and counted nowhere.
     pub solve: Duration,
     /// Inextensibility projection.
     pub constraints: Duration,
     /// Particles against analytic colliders (before the triangle
     /// collisions; their corrections within those count as `response`).
     pub contacts: Duration,
-    /// Loading the collision step: points, boxes and hierarchy refits.
+    /// Loading the collision step: the cloth's points, boxes and hierarchy
+    /// refits.
     pub refit: Duration,
     /// Collision broad phase.
     pub broad: Duration,
@@ -719,13 +722,24 @@ impl Simulator {
 
     /// Advances by one backward-Euler step of `h` seconds.
     pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
-        let n = self.x.len();
         if let Some(ramp) = &mut self.ramp
             && !ramp.advance(&mut self.particles, &mut self.springs, self.strain_limits.as_mut())
         {
             self.ramp = None;
         }
         let window = StepWindow { t0: self.time, t1: self.time + h };
+        let mut report = StepReport::default();
+        // The obstacles of the step (a body's skin at its start and end,
+        // their boxes and hierarchy) do not depend on the solve: they are
+        // made on the other core while it runs, in the frame that the
+        // cloth's start velocities carry it by.
+        let mut pipeline = self.collision.take();
+        let shift = mean_velocity(&self.v) * h;
+        rayon::join(
+            || self.solve_velocity_change(window, h, &mut report),
+            || pipeline.as_mut().map(|p| p.frame_obstacles(window, shift)),
+        );
+        self.collision = pipeline;
         let mut clock = Instant::now();
         let mut lap = || {
             let now = Instant::now();
@@ -733,44 +747,6 @@ impl Simulator {
             clock = now;
             elapsed
         };
-        let mut report = StepReport::default();
-
-        let input = AssemblyInput { x: &self.x, v: &self.v, h };
-        evaluate_springs(&self.cloth, &self.springs, &input, &mut self.ws.system);
-        report.timings.springs = lap();
-        assemble(&self.layout, &self.particles, &input, &mut self.ws.system);
-        report.timings.assembly = lap();
-
-        self.ws.velocity_change.resize(n, Vector3::zeros());
-        report.resting_contacts = self.prepare_constraints(window);
-        let (mass, gravity) = (&self.particles.mass, &self.particles.gravity);
-        self.ws.weight_impulse.clear();
-        self.ws.weight_impulse.extend((0..n).map(|i| gravity[i] * (mass[i] * h)));
-        loop {
-            let system = FilteredSystem {
-                pattern: &self.layout.pattern,
-                a: &self.ws.system.matrix,
-                b: &self.ws.system.rhs,
-                typical: &self.ws.weight_impulse,
-                constraints: &self.ws.constraints,
-                positions: &self.x,
-            };
-            let (solve, factored) =
-                self.preconditioner.solve(system, &mut self.ws.velocity_change, self.settings, &mut self.ws.pcg);
-            report.factorizations += factored;
-            report.solver = PcgReport { iterations: report.solver.iterations + solve.iterations, ..solve };
-            report.solves += 1;
-            if report.solves == CONTACT_PASSES || self.colliders.is_empty() {
-                break;
-            }
-            let (new_contacts, significant) = self.predict_contacts(window);
-            report.resting_contacts += new_contacts;
-            if significant == 0 {
-                break;
-            }
-        }
-        self.record_contact_forces(h);
-        report.timings.solve = lap();
 
         self.integrate(h);
         if let Some(limits) = &mut self.strain_limits {
@@ -851,6 +827,58 @@ impl Simulator {
         (report.max_strain, report.mean_strain) = self.strain();
         report.timings.finish = lap();
         Ok(report)
+    }
+
+    /// The implicit velocity update of one step (PAPER eq. 3-5): assembles
+    /// the system, sets each particle's constraint and solves, again while
+    /// the solution predicts new collider contacts, for a step of `h`
+    /// seconds over `window`. Fills the report's solver figures and its
+    /// springs, assembly and solve times.
+    fn solve_velocity_change(&mut self, window: StepWindow, h: f64, report: &mut StepReport) {
+        let n = self.x.len();
+        let mut clock = Instant::now();
+        let lap = |clock: &mut Instant| {
+            let now = Instant::now();
+            let elapsed = now - *clock;
+            *clock = now;
+            elapsed
+        };
+        let input = AssemblyInput { x: &self.x, v: &self.v, h };
+        evaluate_springs(&self.cloth, &self.springs, &input, &mut self.ws.system);
+        report.timings.springs = lap(&mut clock);
+        assemble(&self.layout, &self.particles, &input, &mut self.ws.system);
+        report.timings.assembly = lap(&mut clock);
+
+        self.ws.velocity_change.resize(n, Vector3::zeros());
+        report.resting_contacts = self.prepare_constraints(window);
+        let (mass, gravity) = (&self.particles.mass, &self.particles.gravity);
+        self.ws.weight_impulse.clear();
+        self.ws.weight_impulse.extend((0..n).map(|i| gravity[i] * (mass[i] * h)));
+        loop {
+            let system = FilteredSystem {
+                pattern: &self.layout.pattern,
+                a: &self.ws.system.matrix,
+                b: &self.ws.system.rhs,
+                typical: &self.ws.weight_impulse,
+                constraints: &self.ws.constraints,
+                positions: &self.x,
+            };
+            let (solve, factored) =
+                self.preconditioner.solve(system, &mut self.ws.velocity_change, self.settings, &mut self.ws.pcg);
+            report.factorizations += factored;
+            report.solver = PcgReport { iterations: report.solver.iterations + solve.iterations, ..solve };
+            report.solves += 1;
+            if report.solves == CONTACT_PASSES || self.colliders.is_empty() {
+                break;
+            }
+            let (new_contacts, significant) = self.predict_contacts(window);
+            report.resting_contacts += new_contacts;
+            if significant == 0 {
+                break;
+            }
+        }
+        self.record_contact_forces(h);
+        report.timings.solve = lap(&mut clock);
     }
 
     /// Sets each particle's constraint for the solve and the prescribed part of
@@ -1004,6 +1032,12 @@ impl Simulator {
         let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| spring_strain(cloth, x, stretch[k]).abs());
         (max, total / stretch.len().max(1) as f64)
     }
+}
+
+/// The mean of `v` (zero for none), m/s.
+fn mean_velocity(v: &[Vector3<f64>]) -> Vector3<f64> {
+    let sum: Vector3<f64> = v.iter().sum();
+    if v.is_empty() { Vector3::zeros() } else { sum / v.len() as f64 }
 }
 
 /// Strain of spring `spring` at positions `x`, (l − l₀) / l₀, unitless.

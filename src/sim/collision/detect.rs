@@ -14,6 +14,7 @@ use super::features::Ownership;
 use super::obstacles::Obstacles;
 use super::response::{Contact, ContactKind};
 use super::{CollisionPipeline, CollisionReport, ParticleCollision, Workspace};
+use crate::sim::contact::StepWindow;
 
 /// Candidate jobs per parallel chunk of the narrow phase.
 const JOBS_PER_CHUNK: usize = 512;
@@ -74,28 +75,32 @@ pub(super) enum Job {
 }
 
 impl CollisionPipeline {
-    /// The step's frame for boxes (moving with the cloth's mean displacement
-    /// as the implicit solve proposed it) and the obstacles' boxes in it,
-    /// with their hierarchy refitted: obstacles do not move within a step,
-    /// so every detection of the step shares them.
-    pub(super) fn frame_obstacles(&mut self) {
+    /// Places the obstacles over `window` and boxes them in the step's
+    /// frame, which moves by `shift` (m) over the step, and refits their
+    /// hierarchy: obstacles do not move within a step, so every detection of
+    /// the step shares them. Any `shift` gives the same contacts (a box spans
+    /// a point's start and its end minus the shift, so two boxes overlap
+    /// wherever the points' relative paths come near); one close to the
+    /// cloth's own displacement keeps a carried cloth's boxes small.
+    pub fn frame_obstacles(&mut self, window: StepWindow, shift: Vector3<f64>) {
         let n = self.particles.len();
         let ws = &mut self.ws;
-        ws.shift = mean_displacement(&ws.start[..n], &ws.end[..n]);
+        self.obstacles.positions(window, &mut ws.obstacle_start, &mut ws.obstacle_end);
+        ws.shift = shift;
         ws.node_box.clear();
         ws.node_box.resize(n, Box3::empty());
         // The cloth's boxes are of the last step: the next detection makes
         // all of them again.
         ws.triangle_box.clear();
-        let shift = ws.shift;
-        ws.node_box
-            .extend(ws.start[n..].iter().zip(&ws.end[n..]).map(|(a, b)| Box3::empty().with(a).with(&(b - shift))));
+        let paths = ws.obstacle_start.iter().zip(&ws.obstacle_end);
+        ws.node_box.extend(paths.map(|(a, b)| Box3::empty().with(a).with(&(b - shift))));
         let obstacle_nodes = &ws.node_box[n..];
         ws.obstacle_feature_box.clear();
         ws.obstacle_feature_box
             .extend(self.obstacles.triangles.iter().map(|tri| FeatureBoxes::of(*tri, obstacle_nodes)));
         ws.obstacle_box.clear();
         ws.obstacle_box.extend(ws.obstacle_feature_box.iter().map(FeatureBoxes::whole));
+        self.framed = Some(window);
         if ws.obstacle_box.is_empty() {
             return;
         }
@@ -304,17 +309,17 @@ impl FeatureBoxes {
 }
 
 /// The mean displacement over the step of the points that go `start` → `end`
-/// (zero for none), m.
+/// (zero for none), m: the frame of a step's boxes when no other was given.
 ///
-/// Every box of a step's detections is taken in a frame that moves by this
-/// much over the step (as the implicit solve proposed the ends): each
-/// point's box spans its start and its end minus the shift.
-/// Two points' relative position at every time is the same in that frame as
-/// in the world (both are shifted by the same `t · shift`), and every test a
-/// box stands for is one of two features' relative position, so no contact
-/// is lost; but a garment carried along with a body, or a cloth falling as
-/// one, no longer has boxes stretched by the motion they share.
-fn mean_displacement(start: &[Vector3<f64>], end: &[Vector3<f64>]) -> Vector3<f64> {
+/// Every box of a step's detections is taken in a frame that moves by a
+/// shift over the step: each point's box spans its start and its end minus
+/// the shift. Two points' relative position at every time is the same in
+/// that frame as in the world (both are shifted by the same `t · shift`),
+/// and every test a box stands for is one of two features' relative
+/// position, so no contact is lost; but a garment carried along with a
+/// body, or a cloth falling as one, no longer has boxes stretched by the
+/// motion they share.
+pub(super) fn mean_displacement(start: &[Vector3<f64>], end: &[Vector3<f64>]) -> Vector3<f64> {
     let sum: Vector3<f64> = start.iter().zip(end).map(|(a, b)| b - a).sum();
     if start.is_empty() { Vector3::zeros() } else { sum / start.len() as f64 }
 }
