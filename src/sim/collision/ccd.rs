@@ -28,7 +28,9 @@
 
 use nalgebra::Vector3;
 
-use super::geometry::{closest_between_segments, closest_on_triangle, point_triangle_distance, segment_distance};
+use super::geometry::{
+    box_gap_squared, closest_between_segments, closest_on_triangle, point_triangle_distance, segment_distance,
+};
 
 /// Bisection steps on a sign change: 2⁻⁶⁰ of the step.
 const BISECTIONS: usize = 60;
@@ -60,11 +62,13 @@ impl Path {
 /// motions, so features that move together (a skirt carried by the body, a
 /// cloth falling as one) have a small reach however fast they move. Rounded
 /// up by a relative 1e-9, so round-off never culls a pair that could meet.
+/// One square root, of the largest squared displacement (the root is
+/// monotone and correctly rounded, so this is the largest of the lengths).
 pub fn relative_reach(first: &[Path], second: &[Path]) -> f64 {
     let motion = |p: &Path| p.end - p.start;
-    let largest =
-        first.iter().flat_map(|a| second.iter().map(move |b| (motion(a) - motion(b)).norm())).fold(0.0, f64::max);
-    largest * (1.0 + 1e-9)
+    let squared = |a: &Path, b: &Path| (motion(a) - motion(b)).norm_squared();
+    let largest = first.iter().flat_map(|a| second.iter().map(move |b| squared(a, b))).fold(0.0, f64::max);
+    largest.sqrt() * (1.0 + 1e-9)
 }
 
 /// A contact between two features.
@@ -98,6 +102,9 @@ pub fn vertex_triangle(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64) -
 pub fn vertex_triangle_within(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64, reach: f64) -> Option<Hit> {
     let at = |t: f64| (p.at(t), a.at(t), b.at(t), c.at(t));
     let (p0, a0, b0, c0) = at(0.0);
+    if apart(box_gap_squared(&[p0], &[a0, b0, c0]), thickness + reach) {
+        return None;
+    }
     let start_gap = closest_direction_vt(&p0, &a0, &b0, &c0);
     let start_distance = start_gap.norm();
     if start_distance > thickness + reach {
@@ -155,6 +162,9 @@ pub fn edge_edge(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64) -> Opti
 pub fn edge_edge_within(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64, reach: f64) -> Option<Hit> {
     let at = |t: f64| (a.at(t), b.at(t), c.at(t), d.at(t));
     let (a0, b0, c0, d0) = at(0.0);
+    if apart(box_gap_squared(&[a0, b0], &[c0, d0]), thickness + reach) {
+        return None;
+    }
     let (p0, q0) = closest_points_ee(&a0, &b0, &c0, &d0);
     let start_distance = (p0 - q0).norm();
     if start_distance > thickness + reach {
@@ -206,6 +216,13 @@ fn orient(v: Vector3<f64>, reference: Vector3<f64>) -> Option<Vector3<f64>> {
 fn point_on_triangle(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>) -> Vector3<f64> {
     let [wa, wb, wc] = closest_on_triangle(p, a, b, c);
     a * wa + b * wb + c * wc
+}
+
+/// Whether features whose start boxes are `gap_squared` m² apart are
+/// certainly farther apart than `distance`: by a relative 1e-6, far beyond
+/// round-off, so the exact start distance would cull them too.
+fn apart(gap_squared: f64, distance: f64) -> bool {
+    gap_squared > (distance * (1.0 + 1e-6)).powi(2)
 }
 
 fn closest_direction_vt(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>) -> Vector3<f64> {
