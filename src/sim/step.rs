@@ -38,7 +38,7 @@ use super::colliders::Collider;
 use super::collision::obstacles::{ClothScale, MeshCollider, Obstacles};
 use super::collision::{
     ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, Kinematic, ParticleCollision,
-    PassState, ResponseStage,
+    PassState, ResponseStage, carried_displacement,
 };
 use super::contact::{ParticleSurface, StepWindow, SurfaceContact, resolve_particle};
 use super::fabric::{Fabric, FabricError};
@@ -734,19 +734,17 @@ impl Simulator {
         // made on the other core while it runs, in the frame that the
         // cloth's start velocities carry it by.
         let mut pipeline = self.collision.take();
-        let shift = mean_velocity(&self.v) * h;
+        let shift = carried_displacement(&self.v, h);
         rayon::join(
             || self.solve_velocity_change(window, h, &mut report),
-            || pipeline.as_mut().map(|p| p.frame_obstacles(window, shift)),
+            || {
+                if let Some(pipeline) = pipeline.as_mut() {
+                    pipeline.frame_obstacles(window, shift);
+                }
+            },
         );
         self.collision = pipeline;
         let mut clock = Instant::now();
-        let mut lap = || {
-            let now = Instant::now();
-            let elapsed = now - clock;
-            clock = now;
-            elapsed
-        };
 
         self.integrate(h);
         if let Some(limits) = &mut self.strain_limits {
@@ -758,9 +756,9 @@ impl Simulator {
                 h,
             });
         }
-        report.timings.constraints = lap();
+        report.timings.constraints = lap(&mut clock);
         report.contacts = self.collide_with_colliders(window);
-        report.timings.contacts = lap();
+        report.timings.contacts = lap(&mut clock);
         if let Some(pipeline) = &mut self.collision {
             let cloth = ClothState {
                 start: &self.x,
@@ -809,7 +807,7 @@ impl Simulator {
             report.timings.broad = c.broad;
             report.timings.narrow = c.narrow;
             report.timings.response = c.response;
-            lap();
+            lap(&mut clock);
         }
 
         for k in 0..self.pins.len() {
@@ -825,7 +823,7 @@ impl Simulator {
         std::mem::swap(&mut self.v, &mut self.ws.next_v);
         self.time = window.t1;
         (report.max_strain, report.mean_strain) = self.strain();
-        report.timings.finish = lap();
+        report.timings.finish = lap(&mut clock);
         Ok(report)
     }
 
@@ -837,12 +835,6 @@ impl Simulator {
     fn solve_velocity_change(&mut self, window: StepWindow, h: f64, report: &mut StepReport) {
         let n = self.x.len();
         let mut clock = Instant::now();
-        let lap = |clock: &mut Instant| {
-            let now = Instant::now();
-            let elapsed = now - *clock;
-            *clock = now;
-            elapsed
-        };
         let input = AssemblyInput { x: &self.x, v: &self.v, h };
         evaluate_springs(&self.cloth, &self.springs, &input, &mut self.ws.system);
         report.timings.springs = lap(&mut clock);
@@ -1034,10 +1026,12 @@ impl Simulator {
     }
 }
 
-/// The mean of `v` (zero for none), m/s.
-fn mean_velocity(v: &[Vector3<f64>]) -> Vector3<f64> {
-    let sum: Vector3<f64> = v.iter().sum();
-    if v.is_empty() { Vector3::zeros() } else { sum / v.len() as f64 }
+/// The time since `clock`, which is set to now.
+fn lap(clock: &mut Instant) -> Duration {
+    let now = Instant::now();
+    let elapsed = now - *clock;
+    *clock = now;
+    elapsed
 }
 
 /// Strain of spring `spring` at positions `x`, (l − l₀) / l₀, unitless.

@@ -320,8 +320,22 @@ impl FeatureBoxes {
 /// body, or a cloth falling as one, no longer has boxes stretched by the
 /// motion they share.
 pub(super) fn mean_displacement(start: &[Vector3<f64>], end: &[Vector3<f64>]) -> Vector3<f64> {
-    let sum: Vector3<f64> = start.iter().zip(end).map(|(a, b)| b - a).sum();
-    if start.is_empty() { Vector3::zeros() } else { sum / start.len() as f64 }
+    mean(start.iter().zip(end).map(|(a, b)| b - a))
+}
+
+/// The displacement over a step of `h` seconds that particles with start
+/// velocities `velocity` (m/s) are carried by on average, m: the frame a
+/// simulator boxes a step in before its solve has proposed the ends (see
+/// [`mean_displacement`] for why any frame is exact).
+pub fn carried_displacement(velocity: &[Vector3<f64>], h: f64) -> Vector3<f64> {
+    mean(velocity.iter().copied()) * h
+}
+
+/// The mean of `vectors` (zero for none).
+fn mean(vectors: impl ExactSizeIterator<Item = Vector3<f64>>) -> Vector3<f64> {
+    let count = vectors.len();
+    let sum: Vector3<f64> = vectors.sum();
+    if count == 0 { Vector3::zeros() } else { sum / count as f64 }
 }
 
 /// The overlapping pairs `(low, high)` of cloth triangles with at least one

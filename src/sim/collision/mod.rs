@@ -45,6 +45,7 @@ use std::time::{Duration, Instant};
 use nalgebra::Vector3;
 
 use self::bvh::{Box3, SweptBvh};
+pub use self::detect::carried_displacement;
 use self::detect::{Detection, Job, Scope};
 use self::features::Ownership;
 use self::obstacles::Obstacles;
