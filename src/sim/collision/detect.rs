@@ -144,12 +144,12 @@ impl CollisionPipeline {
             ws.node_box[i] = point_box(i, particle);
             ws.point[i] = point_state(i);
         }
-        let moved_triangles = ws.moved_triangle.iter().enumerate().filter(|&(_, &m)| m).map(|(t, _)| t);
-        for t in moved_triangles.clone() {
+        for &t in &ws.moved_list {
+            let t = t as usize;
             ws.feature_box[t] = FeatureBoxes::of(self.triangles[t], &ws.node_box);
             ws.triangle_box[t] = ws.feature_box[t].whole();
         }
-        bvh.update_leaves(&ws.triangle_box, moved_triangles);
+        bvh.update_leaves(&ws.triangle_box, ws.moved_list.iter().map(|&t| t as usize));
     }
 
     /// Boxes, broad phase and narrow phase over `scope`: fills the
@@ -160,9 +160,12 @@ impl CollisionPipeline {
         let moved = scope == Scope::Moved;
         let ws = &mut self.ws;
         ws.moved_triangle.clear();
+        ws.moved_list.clear();
         if moved {
             let points = &ws.moved;
             ws.moved_triangle.extend(self.triangles.iter().map(|t| t.iter().any(|&v| points[v as usize])));
+            let moved_triangle = ws.moved_triangle.iter().enumerate().filter(|&(_, &m)| m);
+            ws.moved_list.extend(moved_triangle.map(|(t, _)| t as u32));
         }
         self.refit(moved);
         let ws = &mut self.ws;
@@ -184,7 +187,14 @@ impl CollisionPipeline {
         let near = if sharp { boxes.fold(Box3::empty(), |all, (_, b)| all.union(b)) } else { Box3::empty() };
         if self.self_collision.iter().any(|&s| s) || self.self_collision.len() > 1 {
             match moved {
-                true => moved_pairs(bvh, &ws.triangle_box, &ws.moved_triangle, &mut ws.hits, &mut ws.pairs),
+                true => moved_pairs(
+                    bvh,
+                    &ws.triangle_box,
+                    &ws.moved_triangle,
+                    &ws.moved_list,
+                    &mut ws.query_chunks,
+                    &mut ws.pairs,
+                ),
                 false => bvh.self_pairs(&mut ws.pairs),
             }
             let (garment, self_collision) = (&self.triangle_garment, &self.self_collision);
@@ -270,13 +280,14 @@ impl CollisionPipeline {
 /// `moved` only those of a moved cloth triangle.
 fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved: bool) {
     let pairs = &mut ws.mesh_pairs;
-    pairs.clear();
     if moved {
-        for (h, _) in ws.moved_triangle.iter().enumerate().filter(|(_, m)| **m) {
-            obstacles.overlapping(&ws.triangle_box[h], &mut ws.hits);
-            pairs.extend(ws.hits.iter().map(|&t| (t, h as u32)));
-        }
+        let cloth_box = &ws.triangle_box;
+        parallel_queries(&ws.moved_list, &mut ws.query_chunks, pairs, |h, hits, pairs| {
+            obstacles.overlapping(&cloth_box[h as usize], hits);
+            pairs.extend(hits.iter().map(|&t| (t, h)));
+        });
     } else {
+        pairs.clear();
         obstacles.pairs_with(cloth, pairs);
     }
     let (cloth_box, obstacle_box) = (&ws.triangle_box, &ws.obstacle_box);
@@ -340,14 +351,56 @@ fn mean(vectors: impl ExactSizeIterator<Item = Vector3<f64>>) -> Vector3<f64> {
 
 /// The overlapping pairs `(low, high)` of cloth triangles with at least one
 /// `moved`, sorted: what [`SweptBvh::self_pairs`] gives, restricted to them.
-fn moved_pairs(bvh: &SweptBvh, boxes: &[Box3], moved: &[bool], hits: &mut Vec<u32>, out: &mut Vec<(u32, u32)>) {
-    out.clear();
-    for (a, _) in moved.iter().enumerate().filter(|(_, m)| **m) {
-        bvh.overlapping(&boxes[a], hits);
-        let a = a as u32;
-        out.extend(hits.iter().filter(|&&h| h != a && (!moved[h as usize] || a < h)).map(|&h| (a.min(h), a.max(h))));
-    }
+/// `moved_list` holds the moved triangles in increasing order.
+fn moved_pairs(
+    bvh: &SweptBvh,
+    boxes: &[Box3],
+    moved: &[bool],
+    moved_list: &[u32],
+    chunks: &mut Vec<QueryChunk>,
+    out: &mut Vec<(u32, u32)>,
+) {
+    parallel_queries(moved_list, chunks, out, |a, hits, pairs| {
+        bvh.overlapping(&boxes[a as usize], hits);
+        pairs.extend(hits.iter().filter(|&&h| h != a && (!moved[h as usize] || a < h)).map(|&h| (a.min(h), a.max(h))));
+    });
     out.sort_unstable();
+}
+
+/// Moved triangles per parallel task of a broad-phase query.
+const QUERIES_PER_CHUNK: usize = 32;
+
+/// One parallel task's buffers for hierarchy queries.
+#[derive(Clone, Debug, Default)]
+pub(super) struct QueryChunk {
+    hits: Vec<u32>,
+    pairs: Vec<(u32, u32)>,
+}
+
+/// Runs `query` for every triangle of `triangles` in parallel chunks (each
+/// with its own hit and pair buffers, kept in `chunks` from call to call) and
+/// appends the pairs to `out` in the order of `triangles`, whatever the
+/// thread count.
+fn parallel_queries(
+    triangles: &[u32],
+    chunks: &mut Vec<QueryChunk>,
+    out: &mut Vec<(u32, u32)>,
+    query: impl Fn(u32, &mut Vec<u32>, &mut Vec<(u32, u32)>) + Sync,
+) {
+    out.clear();
+    let count = triangles.len().div_ceil(QUERIES_PER_CHUNK);
+    if chunks.len() < count {
+        chunks.resize_with(count, QueryChunk::default);
+    }
+    triangles.par_chunks(QUERIES_PER_CHUNK).zip(chunks[..count].par_iter_mut()).for_each(|(triangles, chunk)| {
+        chunk.pairs.clear();
+        for &t in triangles {
+            query(t, &mut chunk.hits, &mut chunk.pairs);
+        }
+    });
+    for chunk in &chunks[..count] {
+        out.extend_from_slice(&chunk.pairs);
+    }
 }
 
 /// What the narrow phase reads of one point, in one cache line: its path
@@ -609,6 +662,32 @@ impl Narrow<'_> {
                     self.edge_edge(edge(cloth(t), k), &edges[k], obstacle, &obstacle_box, found, tests);
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pairs `(t, k)` for `k < t % 5`: a query whose output size varies.
+    fn varying_query(t: u32, _hits: &mut Vec<u32>, pairs: &mut Vec<(u32, u32)>) {
+        pairs.extend((0..t % 5).map(|k| (t, k)));
+    }
+
+    #[test]
+    fn parallel_queries_keep_the_order_of_the_triangles_at_any_thread_count() {
+        let triangles: Vec<u32> = (0..500).map(|t| t * 3).collect();
+        let expected: Vec<(u32, u32)> = triangles.iter().flat_map(|&t| (0..t % 5).map(move |k| (t, k))).collect();
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a thread pool");
+            let mut chunks = Vec::new();
+            let mut out = vec![(9, 9)];
+            pool.install(|| parallel_queries(&triangles, &mut chunks, &mut out, varying_query));
+            assert_eq!(out, expected, "{threads} threads");
+            // Reused buffers, fewer triangles: nothing of the last call is left.
+            pool.install(|| parallel_queries(&triangles[..7], &mut chunks, &mut out, varying_query));
+            assert_eq!(out, expected[..expected.iter().filter(|p| p.0 < 21).count()], "{threads} threads");
         }
     }
 }

@@ -259,6 +259,10 @@ struct Workspace {
     kept: Vec<Contact>,
     /// Per cloth triangle, whether one of its points moved (Scope::Moved).
     moved_triangle: Vec<bool>,
+    /// The moved cloth triangles, in increasing order (Scope::Moved).
+    moved_list: Vec<u32>,
+    /// Buffers of the parallel hierarchy queries of a Scope::Moved detection.
+    query_chunks: Vec<detect::QueryChunk>,
     /// End positions before the pass hook, to see which it moved.
     before_hook: Vec<Vector3<f64>>,
     /// Cloth points the pass hook moved after an impact-zone round (pushed
