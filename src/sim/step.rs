@@ -427,6 +427,10 @@ struct Workspace {
     holds: Vec<(u32, Vector3<f64>)>,
     contacts: Vec<u32>,
     partials: Vec<f64>,
+    /// The positions at the start of a step and their ends predicted from
+    /// the start velocities, for the collision pipeline's speculation.
+    speculative_start: Vec<Vector3<f64>>,
+    predicted_end: Vec<Vector3<f64>>,
 }
 
 /// A cloth simulation: state, parameters, colliders and the step pipeline.
@@ -732,17 +736,27 @@ impl Simulator {
         // The obstacles of the step (a body's skin at its start and end,
         // their boxes and hierarchy) do not depend on the solve: they are
         // made on the other core while it runs, in the frame that the
-        // cloth's start velocities carry it by.
+        // cloth's start velocities carry it by; then the cloth's broad
+        // phase is speculated there from the ends those velocities predict.
         let mut pipeline = self.collision.take();
         let shift = carried_displacement(&self.v, h);
+        let (mut start, mut predicted) =
+            (std::mem::take(&mut self.ws.speculative_start), std::mem::take(&mut self.ws.predicted_end));
+        if pipeline.is_some() {
+            start.clone_from(&self.x);
+            predicted.clear();
+            predicted.extend(self.x.iter().zip(&self.v).map(|(x, v)| x + v * h));
+        }
         rayon::join(
             || self.solve_velocity_change(window, h, &mut report),
             || {
                 if let Some(pipeline) = pipeline.as_mut() {
                     pipeline.frame_obstacles(window, shift);
+                    pipeline.speculate(window, &start, &predicted);
                 }
             },
         );
+        (self.ws.speculative_start, self.ws.predicted_end) = (start, predicted);
         self.collision = pipeline;
         let mut clock = Instant::now();
 

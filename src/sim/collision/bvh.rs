@@ -58,6 +58,16 @@ impl Box3 {
             & (b.min.z <= a.max.z)
     }
 
+    /// True when `other` lies inside this box.
+    pub fn contains(&self, other: &Box3) -> bool {
+        (self.min.x <= other.min.x)
+            & (self.min.y <= other.min.y)
+            & (self.min.z <= other.min.z)
+            & (other.max.x <= self.max.x)
+            & (other.max.y <= self.max.y)
+            & (other.max.z <= self.max.z)
+    }
+
     /// The f32 box containing this one.
     fn outward(&self) -> Aabb {
         let down = |x: f64| {

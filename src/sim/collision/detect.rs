@@ -13,7 +13,7 @@ use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_wi
 use super::features::Ownership;
 use super::obstacles::Obstacles;
 use super::response::{Contact, ContactKind};
-use super::{CollisionPipeline, CollisionReport, ParticleCollision, Workspace};
+use super::{CollisionPipeline, CollisionReport, ParticleCollision, Workspace, speculate};
 use crate::sim::contact::StepWindow;
 
 /// Candidate jobs per parallel chunk of the narrow phase.
@@ -87,6 +87,7 @@ impl CollisionPipeline {
         let ws = &mut self.ws;
         self.obstacles.positions(window, &mut ws.obstacle_start, &mut ws.obstacle_end);
         ws.shift = shift;
+        ws.speculative = false;
         ws.node_box.clear();
         ws.node_box.resize(n, Box3::empty());
         // The cloth's boxes are of the last step: the next detection makes
@@ -114,8 +115,10 @@ impl CollisionPipeline {
     /// points' packed states and the hierarchy up to date. With `only_moved`
     /// (and boxes already made this step) only the points that moved since
     /// the last detection and the workspace's `moved_triangle`s are boxed
-    /// again: every other path, and so every other box, is as it was.
-    fn refit(&mut self, only_moved: bool) {
+    /// again: every other path, and so every other box, is as it was. After
+    /// a speculation (`speculated`) only the leaves of the triangles that
+    /// escaped their speculative boxes are updated.
+    fn refit(&mut self, only_moved: bool, speculated: bool) {
         let ws = &mut self.ws;
         let (start, end, shift) = (&ws.start, &ws.end, ws.shift);
         let point_box =
@@ -134,6 +137,7 @@ impl CollisionPipeline {
                 ws.triangle_box.clear();
                 ws.triangle_box.extend(ws.feature_box.iter().map(FeatureBoxes::whole));
                 match &mut self.bvh {
+                    _ if speculated => self.update_escaped(),
                     Some(bvh) => bvh.update(&ws.triangle_box),
                     None => self.bvh = Some(SweptBvh::new(&ws.triangle_box)),
                 }
@@ -167,7 +171,8 @@ impl CollisionPipeline {
             let moved_triangle = ws.moved_triangle.iter().enumerate().filter(|&(_, &m)| m);
             ws.moved_list.extend(moved_triangle.map(|(t, _)| t as u32));
         }
-        self.refit(moved);
+        let speculated = !moved && std::mem::take(&mut ws.speculative);
+        self.refit(moved, speculated);
         let ws = &mut self.ws;
         report.refit += clock.elapsed();
 
@@ -195,7 +200,12 @@ impl CollisionPipeline {
                     &mut ws.query_chunks,
                     &mut ws.pairs,
                 ),
-                false => bvh.self_pairs(&mut ws.pairs),
+                false if speculated => speculate::confirmed_self_pairs(bvh, ws),
+                false => {
+                    bvh.self_pairs(&mut ws.pairs);
+                    let boxes = &ws.triangle_box;
+                    ws.pairs.retain(|&(a, b)| boxes[a as usize].overlaps(&boxes[b as usize]));
+                }
             }
             let (garment, self_collision) = (&self.triangle_garment, &self.self_collision);
             ws.jobs.extend(ws.pairs.iter().filter_map(|&(a, b)| {
@@ -205,21 +215,23 @@ impl CollisionPipeline {
         }
         let o = &self.obstacles;
         if let Some(obstacle_bvh) = &self.obstacle_bvh {
-            mesh_pairs(bvh, obstacle_bvh, ws, moved);
+            mesh_pairs(bvh, obstacle_bvh, ws, moved, speculated);
             ws.jobs.extend(ws.mesh_pairs.iter().map(|&(t, h)| Job::Mesh(h, t)));
         }
         for &v in &o.feature_vertices {
             let vertex_box = ws.node_box[n + v as usize];
             if vertex_box.overlaps(&near) {
                 bvh.overlapping(&vertex_box, &mut ws.hits);
-                ws.jobs.extend(ws.hits.iter().map(|&h| Job::Vertex(h, v)));
+                let hits = ws.hits.iter().filter(|&&h| ws.triangle_box[h as usize].overlaps(&vertex_box));
+                ws.jobs.extend(hits.map(|&h| Job::Vertex(h, v)));
             }
         }
         for (e, [a, b]) in o.feature_edges.iter().enumerate() {
             let edge_box = ws.node_box[n + *a as usize].union(&ws.node_box[n + *b as usize]);
             if edge_box.overlaps(&near) {
                 bvh.overlapping(&edge_box, &mut ws.hits);
-                ws.jobs.extend(ws.hits.iter().map(|&h| Job::Edge(h, e as u32)));
+                let hits = ws.hits.iter().filter(|&&h| ws.triangle_box[h as usize].overlaps(&edge_box));
+                ws.jobs.extend(hits.map(|&h| Job::Edge(h, e as u32)));
             }
         }
         if moved {
@@ -276,23 +288,26 @@ impl CollisionPipeline {
 }
 
 /// The overlapping pairs `(obstacle triangle, cloth triangle)` of the
-/// workspace's boxes into its `mesh_pairs`, sorted: every pair, or with
-/// `moved` only those of a moved cloth triangle.
-fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved: bool) {
-    let pairs = &mut ws.mesh_pairs;
+/// workspace's boxes into its `mesh_pairs`, sorted: every pair (confirming a
+/// speculation's when `speculated`), or with `moved` only those of a moved
+/// cloth triangle.
+fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved: bool, speculated: bool) {
     if moved {
         let cloth_box = &ws.triangle_box;
-        parallel_queries(&ws.moved_list, &mut ws.query_chunks, pairs, |h, hits, pairs| {
+        parallel_queries(&ws.moved_list, &mut ws.query_chunks, &mut ws.mesh_pairs, |h, hits, pairs| {
             obstacles.overlapping(&cloth_box[h as usize], hits);
             pairs.extend(hits.iter().map(|&t| (t, h)));
         });
+    } else if speculated {
+        speculate::speculated_mesh_pairs(obstacles, ws);
     } else {
-        pairs.clear();
-        obstacles.pairs_with(cloth, pairs);
+        ws.mesh_pairs.clear();
+        obstacles.pairs_with(cloth, &mut ws.mesh_pairs);
     }
     let (cloth_box, obstacle_box) = (&ws.triangle_box, &ws.obstacle_box);
-    pairs.retain(|&(t, h)| obstacle_box[t as usize].overlaps(&cloth_box[h as usize]));
-    pairs.sort_unstable();
+    ws.mesh_pairs.retain(|&(t, h)| obstacle_box[t as usize].overlaps(&cloth_box[h as usize]));
+    ws.mesh_pairs.sort_unstable();
+    ws.mesh_pairs.dedup();
 }
 
 /// The boxes of a triangle's features over the step, side by side: a
@@ -362,7 +377,8 @@ fn moved_pairs(
 ) {
     parallel_queries(moved_list, chunks, out, |a, hits, pairs| {
         bvh.overlapping(&boxes[a as usize], hits);
-        pairs.extend(hits.iter().filter(|&&h| h != a && (!moved[h as usize] || a < h)).map(|&h| (a.min(h), a.max(h))));
+        let wanted = |h: u32| h != a && (!moved[h as usize] || a < h) && boxes[h as usize].overlaps(&boxes[a as usize]);
+        pairs.extend(hits.iter().filter(|&&h| wanted(h)).map(|&h| (a.min(h), a.max(h))));
     });
     out.sort_unstable();
 }
@@ -381,7 +397,7 @@ pub(super) struct QueryChunk {
 /// with its own hit and pair buffers, kept in `chunks` from call to call) and
 /// appends the pairs to `out` in the order of `triangles`, whatever the
 /// thread count.
-fn parallel_queries(
+pub(super) fn parallel_queries(
     triangles: &[u32],
     chunks: &mut Vec<QueryChunk>,
     out: &mut Vec<(u32, u32)>,

@@ -37,6 +37,7 @@ pub mod features;
 pub mod geometry;
 pub mod obstacles;
 pub mod response;
+mod speculate;
 mod zones;
 
 use std::collections::{HashMap, HashSet};
@@ -263,6 +264,21 @@ struct Workspace {
     moved_list: Vec<u32>,
     /// Buffers of the parallel hierarchy queries of a Scope::Moved detection.
     query_chunks: Vec<detect::QueryChunk>,
+    /// The cloth's boxes and pairs were speculated for this step, and its
+    /// first detection has yet to confirm them (see [`speculate`]).
+    speculative: bool,
+    /// Per cloth point: its box over the step from its predicted end.
+    speculative_point_box: Vec<Box3>,
+    /// Per cloth triangle: its box over the step from the predicted ends.
+    speculative_box: Vec<Box3>,
+    /// Self pairs of the speculative boxes, sorted.
+    speculative_pairs: Vec<(u32, u32)>,
+    /// `(obstacle triangle, cloth triangle)` pairs of the speculative boxes.
+    speculative_mesh_pairs: Vec<(u32, u32)>,
+    /// Cloth triangles whose real box left its speculative one.
+    escaped: Vec<u32>,
+    /// Self pairs of the escaped triangles' queries.
+    escaped_pairs: Vec<(u32, u32)>,
     /// End positions before the pass hook, to see which it moved.
     before_hook: Vec<Vector3<f64>>,
     /// Cloth points the pass hook moved after an impact-zone round (pushed
@@ -407,6 +423,7 @@ impl CollisionPipeline {
         cloth.end.copy_from_slice(&self.ws.end[..n]);
         cloth.velocity.copy_from_slice(&self.ws.velocity[..n]);
         self.framed = None;
+        self.ws.speculative = false;
         report
     }
 
@@ -774,6 +791,135 @@ mod tests {
         for shift in [Vector3::zeros(), Vector3::new(0.3, -0.2, 0.1)] {
             assert_eq!(contacts(Some(shift)), by_mean_displacement, "framed by {shift:?}");
         }
+    }
+
+    /// How a test predicts the end of cloth point `i` from its start and
+    /// real end, m.
+    type Prediction = fn(usize, &Vector3<f64>, &Vector3<f64>) -> Vector3<f64>;
+
+    /// [`crumpled`] with its motion over the step scaled by `scale`, its
+    /// broad phase speculated from `prediction` (if any), and its cloth's
+    /// start, end and velocity.
+    fn speculated(scale: f64, prediction: Option<Prediction>) -> (CollisionPipeline, [Vec<Vector3<f64>>; 3]) {
+        let (mut pipeline, n) = crumpled(true);
+        let ws = &mut pipeline.ws;
+        for i in 0..n {
+            ws.end[i] = ws.start[i] + (ws.end[i] - ws.start[i]) * scale;
+        }
+        let (start, end, velocity) = (ws.start[..n].to_vec(), ws.end[..n].to_vec(), ws.velocity[..n].to_vec());
+        if let Some(predict) = prediction {
+            let predicted: Vec<Vector3<f64>> = (0..n).map(|i| predict(i, &start[i], &end[i])).collect();
+            pipeline.speculate(StepWindow { t0: 0.0, t1: 0.01 }, &start, &predicted);
+            assert!(pipeline.ws.speculative, "the obstacles are framed for the step");
+        }
+        (pipeline, [start, end, velocity])
+    }
+
+    /// Predictions of a cloth's ends: exact, no motion, off by up to 3 cm,
+    /// and backwards.
+    const PREDICTIONS: [(Prediction, &str); 4] = [
+        (|_, _, end| *end, "exact"),
+        (|_, start, _| *start, "no motion"),
+        (|i, _, end| end + Vector3::from_fn(|k, _| 0.03 * wobble(i + 7, k)), "off by up to 3 cm"),
+        (|_, start, end| start * 2.0 - end, "backwards"),
+    ];
+
+    /// However good the prediction the broad phase was speculated from, the
+    /// first detection finds the same pairs and the same contacts, with the
+    /// same hits, in the same order, as one without; where the prediction
+    /// is poor, triangles escape their speculative boxes (the fold moves up
+    /// to 24 mm, beyond the margin).
+    #[test]
+    fn a_speculated_broad_phase_gives_the_same_contacts_in_the_same_order_for_any_prediction() {
+        let detect = |prediction: Option<Prediction>| {
+            let (mut pipeline, _) = speculated(4.0, prediction);
+            pipeline.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
+            let ws = &pipeline.ws;
+            let contacts: Vec<String> = ws.contacts.iter().map(|c| format!("{:?} {:?}", c.key(), c.hit)).collect();
+            (contacts, ws.pairs.clone(), ws.mesh_pairs.clone(), ws.escaped.len(), pipeline.triangles.len())
+        };
+        let (contacts, pairs, mesh_pairs, _, triangles) = detect(None);
+        assert!(contacts.len() > 100 && !mesh_pairs.is_empty(), "the fold touches, and the tetrahedron is near");
+        for (k, (prediction, name)) in PREDICTIONS.into_iter().enumerate() {
+            let (speculated_contacts, speculated_pairs, speculated_mesh_pairs, escaped, _) = detect(Some(prediction));
+            assert_eq!(speculated_contacts, contacts, "contacts, {name}");
+            assert_eq!((speculated_pairs, speculated_mesh_pairs), (pairs.clone(), mesh_pairs.clone()), "pairs, {name}");
+            match k {
+                0 => assert_eq!(escaped, 0, "{name}"),
+                _ => assert!(escaped > 0 && escaped < triangles, "{name}: {escaped} of {triangles} escape"),
+            }
+        }
+    }
+
+    /// A whole step's response ends in the same bits whether its first
+    /// broad phase was speculated or not: the later detections, whose
+    /// hierarchy keeps the speculative (larger) boxes of the triangles that
+    /// did not move, find the same pairs too (the last one's are counted).
+    #[test]
+    fn a_speculated_step_ends_where_an_unspeculated_one_does() {
+        let resolve = |prediction: Option<Prediction>| {
+            let (mut pipeline, [start, mut end, mut velocity]) = speculated(2.0, prediction);
+            let mass = vec![1e-3; start.len()];
+            let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
+            let report = pipeline.resolve(cloth, StepWindow { t0: 0.0, t1: 0.01 }, &mut |_: PassState| false);
+            (end, velocity, report.passes, report.contacts, report.pairs)
+        };
+        let unspeculated = resolve(None);
+        assert!(unspeculated.2 > 1, "several passes: {}", unspeculated.2);
+        for (prediction, name) in PREDICTIONS {
+            assert!(resolve(Some(prediction)) == unspeculated, "{name}");
+        }
+    }
+
+    /// Two cloth triangles 30 cm apart, the first sliding onto the second
+    /// and onto a floor patch 3 mm below it within the step, speculated as
+    /// if nothing moved: the first escapes its speculative box, and only
+    /// its own queries find the pairs its real box meets.
+    #[test]
+    fn an_escaped_triangle_finds_the_pairs_its_real_box_meets() {
+        let detect = |speculate: bool| {
+            let triangle =
+                |x: f64, y: f64| [Vector3::new(x, y, 0.0), Vector3::new(x + 0.1, y, 0.0), Vector3::new(x, y, 0.1)];
+            let start: Vec<Vector3<f64>> = [triangle(0.0, 0.0), triangle(0.3, 0.002)].concat();
+            let mut end = start.clone();
+            end[..3].iter_mut().for_each(|p| p.x += 0.3);
+            let floor = MeshCollider {
+                placement: Placement { rest_pose: Isometry3::translation(0.35, -0.003, 0.05), motion: None },
+                ..floor_below()
+            };
+            let floor = MeshCollider {
+                vertices: generate::grid(0.1, 2).positions,
+                triangles: generate::grid(0.1, 2).triangles,
+                ..floor
+            };
+            let particles = vec![ParticleCollision { thickness: THICKNESS, friction: 0.3, pinned: None }; 6];
+            let obstacles = Obstacles::new(&[], &[floor], FINE_CLOTH);
+            let mut pipeline = CollisionPipeline::new(
+                vec![[0, 1, 2], [3, 4, 5]],
+                vec![0, 0],
+                vec![true],
+                particles,
+                obstacles,
+                Default::default(),
+            )
+            .unwrap();
+            let (mut velocity, mass) = (vec![Vector3::zeros(); 6], vec![1e-3; 6]);
+            let window = StepWindow { t0: 0.0, t1: 0.01 };
+            pipeline.load(
+                &ClothState { start: &start, end: &mut end.clone(), velocity: &mut velocity, mass: &mass },
+                window,
+            );
+            if speculate {
+                pipeline.speculate(window, &start, &start);
+            }
+            pipeline.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
+            let ws = &pipeline.ws;
+            (ws.pairs.clone(), ws.mesh_pairs.len(), ws.contacts.len(), ws.escaped.clone())
+        };
+        let (pairs, mesh_pairs, contacts, _) = detect(false);
+        assert_eq!(pairs, vec![(0, 1)]);
+        assert!(mesh_pairs > 0 && contacts > 0, "{mesh_pairs} body pairs, {contacts} contacts");
+        assert_eq!(detect(true), (pairs, mesh_pairs, contacts, vec![0]));
     }
 
     /// A 1.2 m square floor mesh 4 mm below a grid cloth at rest.
