@@ -60,12 +60,7 @@ impl Box3 {
 
     /// True when `other` lies inside this box.
     pub fn contains(&self, other: &Box3) -> bool {
-        (self.min.x <= other.min.x)
-            & (self.min.y <= other.min.y)
-            & (self.min.z <= other.min.z)
-            & (other.max.x <= self.max.x)
-            & (other.max.y <= self.max.y)
-            & (other.max.z <= self.max.z)
+        self.union(other) == *self
     }
 
     /// The f32 box containing this one.
@@ -183,6 +178,13 @@ mod tests {
         let mut hits = Vec::new();
         bvh.overlapping(&Box3 { min: Vector3::new(1.3, 0.5, 0.5), max: Vector3::new(1.4, 0.6, 0.6) }, &mut hits);
         assert_eq!(hits, vec![1, 2]);
+    }
+
+    #[test]
+    fn a_box_contains_what_lies_inside_it_and_not_what_crosses_its_side() {
+        let outer = unit_at(0.0).grown(0.1);
+        assert!(outer.contains(&unit_at(0.0)) && outer.contains(&unit_at(0.1)) && outer.contains(&outer));
+        assert!(!outer.contains(&unit_at(0.2)) && !unit_at(0.0).contains(&outer));
     }
 
     #[test]
