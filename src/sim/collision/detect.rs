@@ -111,6 +111,12 @@ impl CollisionPipeline {
         }
     }
 
+    /// Whether the broad phase pairs cloth triangles with each other: a
+    /// garment collides with itself, or several garments with each other.
+    pub(super) fn cloth_pairs_wanted(&self) -> bool {
+        self.self_collision.iter().any(|&s| s) || self.self_collision.len() > 1
+    }
+
     /// Brings the swept boxes of the cloth's points, edges and triangles, the
     /// points' packed states and the hierarchy up to date. With `only_moved`
     /// (and boxes already made this step) only the points that moved since
@@ -162,6 +168,7 @@ impl CollisionPipeline {
         let clock = Instant::now();
         let n = self.particles.len();
         let moved = scope == Scope::Moved;
+        let cloth_pairs = self.cloth_pairs_wanted();
         let ws = &mut self.ws;
         ws.moved_triangle.clear();
         ws.moved_list.clear();
@@ -190,7 +197,7 @@ impl CollisionPipeline {
         let sharp = !self.obstacles.feature_vertices.is_empty() || !self.obstacles.feature_edges.is_empty();
         let boxes = ws.triangle_box.iter().enumerate().filter(|&(t, _)| !moved || ws.moved_triangle[t]);
         let near = if sharp { boxes.fold(Box3::empty(), |all, (_, b)| all.union(b)) } else { Box3::empty() };
-        if self.self_collision.iter().any(|&s| s) || self.self_collision.len() > 1 {
+        if cloth_pairs {
             match moved {
                 true => moved_pairs(
                     bvh,
