@@ -142,10 +142,13 @@ impl CollisionPipeline {
                 ws.feature_box.extend(self.triangles.iter().map(|t| FeatureBoxes::of(*t, &ws.node_box)));
                 ws.triangle_box.clear();
                 ws.triangle_box.extend(ws.feature_box.iter().map(FeatureBoxes::whole));
-                match &mut self.bvh {
-                    _ if speculated => self.update_escaped(),
-                    Some(bvh) => bvh.update(&ws.triangle_box),
-                    None => self.bvh = Some(SweptBvh::new(&ws.triangle_box)),
+                if speculated {
+                    self.update_escaped();
+                } else {
+                    match &mut self.bvh {
+                        Some(bvh) => bvh.update(&ws.triangle_box),
+                        None => self.bvh = Some(SweptBvh::new(&ws.triangle_box)),
+                    }
                 }
                 return;
             }
@@ -295,21 +298,23 @@ impl CollisionPipeline {
 }
 
 /// The overlapping pairs `(obstacle triangle, cloth triangle)` of the
-/// workspace's boxes into its `mesh_pairs`, sorted: every pair (confirming a
-/// speculation's when `speculated`), or with `moved` only those of a moved
-/// cloth triangle.
+/// workspace's boxes into its `mesh_pairs`, sorted: every pair, or with
+/// `moved` only those of a moved cloth triangle; when `speculated`, the
+/// speculation's pairs with those of the escaped cloth triangles (marked as
+/// moved).
 fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved: bool, speculated: bool) {
-    if moved {
+    if moved || speculated {
         let cloth_box = &ws.triangle_box;
         parallel_queries(&ws.moved_list, &mut ws.query_chunks, &mut ws.mesh_pairs, |h, hits, pairs| {
             obstacles.overlapping(&cloth_box[h as usize], hits);
             pairs.extend(hits.iter().map(|&t| (t, h)));
         });
-    } else if speculated {
-        speculate::speculated_mesh_pairs(obstacles, ws);
     } else {
         ws.mesh_pairs.clear();
         obstacles.pairs_with(cloth, &mut ws.mesh_pairs);
+    }
+    if speculated {
+        ws.mesh_pairs.extend_from_slice(&ws.speculative_mesh_pairs);
     }
     let (cloth_box, obstacle_box) = (&ws.triangle_box, &ws.obstacle_box);
     ws.mesh_pairs.retain(|&(t, h)| obstacle_box[t as usize].overlaps(&cloth_box[h as usize]));
@@ -374,7 +379,7 @@ fn mean(vectors: impl ExactSizeIterator<Item = Vector3<f64>>) -> Vector3<f64> {
 /// The overlapping pairs `(low, high)` of cloth triangles with at least one
 /// `moved`, sorted: what [`SweptBvh::self_pairs`] gives, restricted to them.
 /// `moved_list` holds the moved triangles in increasing order.
-fn moved_pairs(
+pub(super) fn moved_pairs(
     bvh: &SweptBvh,
     boxes: &[Box3],
     moved: &[bool],
@@ -404,7 +409,7 @@ pub(super) struct QueryChunk {
 /// with its own hit and pair buffers, kept in `chunks` from call to call) and
 /// appends the pairs to `out` in the order of `triangles`, whatever the
 /// thread count.
-pub(super) fn parallel_queries(
+fn parallel_queries(
     triangles: &[u32],
     chunks: &mut Vec<QueryChunk>,
     out: &mut Vec<(u32, u32)>,

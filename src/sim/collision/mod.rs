@@ -258,25 +258,22 @@ struct Workspace {
     contacts: Vec<Contact>,
     /// Contacts of the last detection whose points have not moved since.
     kept: Vec<Contact>,
-    /// Per cloth triangle, whether one of its points moved (Scope::Moved).
+    /// Per cloth triangle, whether its box is queried again: one of its
+    /// points moved (Scope::Moved), or it escaped its speculative box.
     moved_triangle: Vec<bool>,
-    /// The moved cloth triangles, in increasing order (Scope::Moved).
+    /// Those triangles, in increasing order.
     moved_list: Vec<u32>,
-    /// Buffers of the parallel hierarchy queries of a Scope::Moved detection.
+    /// Buffers of the parallel hierarchy queries of those triangles.
     query_chunks: Vec<detect::QueryChunk>,
     /// The cloth's boxes and pairs were speculated for this step, and its
     /// first detection has yet to confirm them (see [`speculate`]).
     speculative: bool,
-    /// Per cloth point: its box over the step from its predicted end.
-    speculative_point_box: Vec<Box3>,
     /// Per cloth triangle: its box over the step from the predicted ends.
     speculative_box: Vec<Box3>,
     /// Self pairs of the speculative boxes, sorted.
     speculative_pairs: Vec<(u32, u32)>,
     /// `(obstacle triangle, cloth triangle)` pairs of the speculative boxes.
     speculative_mesh_pairs: Vec<(u32, u32)>,
-    /// Cloth triangles whose real box left its speculative one.
-    escaped: Vec<u32>,
     /// Self pairs of the escaped triangles' queries.
     escaped_pairs: Vec<(u32, u32)>,
     /// End positions before the pass hook, to see which it moved.
@@ -836,7 +833,7 @@ mod tests {
             pipeline.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
             let ws = &pipeline.ws;
             let contacts: Vec<String> = ws.contacts.iter().map(|c| format!("{:?} {:?}", c.key(), c.hit)).collect();
-            (contacts, ws.pairs.clone(), ws.mesh_pairs.clone(), ws.escaped.len(), pipeline.triangles.len())
+            (contacts, ws.pairs.clone(), ws.mesh_pairs.clone(), ws.moved_list.len(), pipeline.triangles.len())
         };
         let (contacts, pairs, mesh_pairs, _, triangles) = detect(None);
         assert!(contacts.len() > 100 && !mesh_pairs.is_empty(), "the fold touches, and the tetrahedron is near");
@@ -914,7 +911,7 @@ mod tests {
             }
             pipeline.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
             let ws = &pipeline.ws;
-            (ws.pairs.clone(), ws.mesh_pairs.len(), ws.contacts.len(), ws.escaped.clone())
+            (ws.pairs.clone(), ws.mesh_pairs.len(), ws.contacts.len(), ws.moved_list.clone())
         };
         let (pairs, mesh_pairs, contacts, _) = detect(false);
         assert_eq!(pairs, vec![(0, 1)]);

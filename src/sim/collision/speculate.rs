@@ -9,8 +9,8 @@
 //! refitted to these boxes and its self pairs and body pairs are found.
 //! When the real ends are known, the first detection *confirms* them: a pair
 //! whose real boxes overlap is kept, and the triangles whose real box left
-//! its predicted one (they *escaped*) are queried again, as after a
-//! response. Every real box lies in its hierarchy leaf, so the confirmed
+//! its predicted one (they *escaped*) are queried again, as moved triangles
+//! are after a response. Every real box lies in its hierarchy leaf, so the confirmed
 //! pairs are exactly those a broad phase of the real boxes finds, and the
 //! contacts do not depend on how good the prediction was; only the work
 //! left after the solve does.
@@ -18,7 +18,7 @@
 use nalgebra::Vector3;
 
 use super::bvh::{Box3, SweptBvh};
-use super::detect::parallel_queries;
+use super::detect::moved_pairs;
 use super::{CollisionPipeline, Workspace};
 use crate::sim::contact::StepWindow;
 
@@ -43,15 +43,15 @@ impl CollisionPipeline {
             return;
         }
         let shift = ws.shift;
-        ws.speculative_point_box.clear();
-        ws.speculative_point_box.extend(self.particles.iter().enumerate().map(|(i, p)| {
+        let particles = &self.particles;
+        let point_box = |v: u32| {
+            let (i, thickness) = (v as usize, particles[v as usize].thickness);
             let path = Box3::empty().with(&start[i]).with(&(predicted_end[i] - shift));
-            path.grown(p.thickness * (1.0 + MARGIN_IN_THICKNESSES))
-        }));
-        let points = &ws.speculative_point_box;
+            path.grown(thickness * (1.0 + MARGIN_IN_THICKNESSES))
+        };
         ws.speculative_box.clear();
         ws.speculative_box.extend(self.triangles.iter().map(|t| {
-            let [a, b, c] = t.map(|v| points[v as usize]);
+            let [a, b, c] = t.map(point_box);
             a.union(&b).union(&c)
         }));
         let bvh = match &mut self.bvh {
@@ -72,18 +72,23 @@ impl CollisionPipeline {
         ws.speculative = true;
     }
 
-    /// After a speculation, the triangles whose real box is not inside the
-    /// predicted one, into the workspace's `escaped`; their leaves take
-    /// their real boxes. Every leaf then contains its triangle's real box.
+    /// After a speculation, marks the triangles whose real box is not
+    /// inside the predicted one (they escaped) as the workspace's
+    /// `moved_triangle`s and `moved_list`, to be queried again as moved
+    /// triangles are after a response; their leaves take their real boxes.
+    /// Every leaf then contains its triangle's real box.
     pub(super) fn update_escaped(&mut self) {
         let ws = &mut self.ws;
-        ws.escaped.clear();
-        let boxes = ws.speculative_box.iter().zip(&ws.triangle_box).enumerate();
-        ws.escaped.extend(boxes.filter(|(_, (predicted, real))| !predicted.contains(real)).map(|(t, _)| t as u32));
+        let boxes = ws.speculative_box.iter().zip(&ws.triangle_box);
+        ws.moved_triangle.clear();
+        ws.moved_triangle.extend(boxes.map(|(predicted, real)| !predicted.contains(real)));
+        let escaped = ws.moved_triangle.iter().enumerate().filter(|&(_, &e)| e);
+        ws.moved_list.clear();
+        ws.moved_list.extend(escaped.map(|(t, _)| t as u32));
         if let Some(bvh) = &mut self.bvh
-            && !ws.escaped.is_empty()
+            && !ws.moved_list.is_empty()
         {
-            bvh.update_leaves(&ws.triangle_box, ws.escaped.iter().map(|&t| t as usize));
+            bvh.update_leaves(&ws.triangle_box, ws.moved_list.iter().map(|&t| t as usize));
         }
     }
 }
@@ -92,14 +97,9 @@ impl CollisionPipeline {
 /// triangles' own, into the workspace's `pairs`, sorted: what
 /// [`SweptBvh::self_pairs`] of the real boxes gives.
 pub(super) fn confirmed_self_pairs(bvh: &SweptBvh, ws: &mut Workspace) {
-    let boxes = &ws.triangle_box;
-    let overlapping = |a: u32, b: u32| boxes[a as usize].overlaps(&boxes[b as usize]);
-    parallel_queries(&ws.escaped, &mut ws.query_chunks, &mut ws.escaped_pairs, |a, hits, pairs| {
-        bvh.overlapping(&boxes[a as usize], hits);
-        pairs.extend(hits.iter().filter(|&&h| h != a && overlapping(a, h)).map(|&h| (a.min(h), a.max(h))));
-    });
-    ws.escaped_pairs.sort_unstable();
-    let kept = ws.speculative_pairs.iter().copied().filter(|&(a, b)| overlapping(a, b));
+    let (boxes, escaped) = (&ws.triangle_box, &ws.moved_triangle);
+    moved_pairs(bvh, boxes, escaped, &ws.moved_list, &mut ws.query_chunks, &mut ws.escaped_pairs);
+    let kept = ws.speculative_pairs.iter().copied().filter(|&(a, b)| boxes[a as usize].overlaps(&boxes[b as usize]));
     merge_sorted(kept, &ws.escaped_pairs, &mut ws.pairs);
 }
 
@@ -123,17 +123,4 @@ fn merge_sorted(first: impl Iterator<Item = (u32, u32)>, second: &[(u32, u32)], 
             out.push(next);
         }
     }
-}
-
-/// The speculation's `(obstacle triangle, cloth triangle)` pairs with the
-/// escaped cloth triangles' own against `obstacles`, into the workspace's
-/// `mesh_pairs`, unsorted and possibly twice: the caller keeps those whose
-/// real boxes overlap, sorts them and drops repeats.
-pub(super) fn speculated_mesh_pairs(obstacles: &SweptBvh, ws: &mut Workspace) {
-    let cloth_box = &ws.triangle_box;
-    parallel_queries(&ws.escaped, &mut ws.query_chunks, &mut ws.mesh_pairs, |h, hits, pairs| {
-        obstacles.overlapping(&cloth_box[h as usize], hits);
-        pairs.extend(hits.iter().map(|&t| (t, h)));
-    });
-    ws.mesh_pairs.extend_from_slice(&ws.speculative_mesh_pairs);
 }
