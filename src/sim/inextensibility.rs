@@ -42,17 +42,19 @@
 //! on its own, over and over. It converges slowly on fine meshes and is kept as
 //! the fallback when the projection does not converge, and for comparison.
 //!
-//! The loops over all edges run in parallel and write disjoint outputs, their
-//! sums go through [`parallel::sum`], and the conjugate-gradient solve runs on
-//! the calling thread in a fixed order, so the result is bit-identical at any
-//! thread count.
+//! Each edge's linearisation ([`super::limit_edges`]) is taken over every edge
+//! once per projection, in parallel chunks, and after each Newton move only at
+//! the particles that moved. Its sums run per chunk and over chunks in a fixed
+//! order, and the conjugate-gradient solve runs on the calling thread, so the
+//! result is bit-identical at any thread count.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::cloth::{Cloth, SpringKind};
 use super::edge_system::{EdgeRow, EdgeSystem};
-use super::parallel::{self, for_each_indexed as par_each};
+use super::limit_edges::{EdgeLimits, Incidence, LinearisedEdges, Particles};
+use super::parallel;
 use super::pcg::Constraint;
 
 /// Strain at which the constraints count as met: 0.01 % beyond the limit.
@@ -196,59 +198,11 @@ pub struct ProjectedState<'a> {
     pub h: f64,
 }
 
-/// Edges incident to each particle, with the side the particle is on.
-#[derive(Clone, Debug)]
-struct Incidence {
-    /// `start[v]..start[v + 1]` indexes `edges` for particle `v`.
-    start: Vec<u32>,
-    /// Edge index times two, plus 1 when the particle is the edge's second end.
-    edges: Vec<u32>,
-}
-
-impl Incidence {
-    fn new(vertex_count: usize, ends: &[[u32; 2]]) -> Self {
-        let mut count = vec![0u32; vertex_count + 1];
-        for [a, b] in ends {
-            count[*a as usize + 1] += 1;
-            count[*b as usize + 1] += 1;
-        }
-        for v in 0..vertex_count {
-            count[v + 1] += count[v];
-        }
-        let mut fill = count.clone();
-        let mut edges = vec![0u32; count[vertex_count] as usize];
-        for (e, [a, b]) in ends.iter().enumerate() {
-            for (side, v) in [(0, *a), (1, *b)] {
-                edges[fill[v as usize] as usize] = 2 * e as u32 + side;
-                fill[v as usize] += 1;
-            }
-        }
-        Incidence { start: count, edges }
-    }
-
-    /// `(edge, sign)` of each edge at particle `v`: sign +1 at the first end, −1 at the second.
-    fn of(&self, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
-        let range = self.start[v] as usize..self.start[v + 1] as usize;
-        self.edges[range].iter().map(|&k| ((k / 2) as usize, if k % 2 == 0 { 1.0 } else { -1.0 }))
-    }
-}
-
-/// One constrained edge linearised at the current iterate.
-#[derive(Clone, Copy, Debug, Default)]
-struct EdgeState {
-    /// Unit direction from the second end to the first (∂C/∂x_a).
-    direction: Vector3<f64>,
-    /// Constraint value C = |x_a − x_b| − (1 + ε) L, m.
-    violation: f64,
-    /// Diagonal entry of J W Jᵀ, 1/kg; 0 when neither end can move along the edge.
-    diagonal: f64,
-}
-
 /// Reusable buffers of a projection.
 #[derive(Clone, Debug, Default)]
 struct Workspace {
-    /// Per edge.
-    edges: Vec<EdgeState>,
+    /// Every edge linearised at the current iterate.
+    edges: LinearisedEdges,
     /// Per edge: in the active set.
     active: Vec<bool>,
     /// The active edges, ascending.
@@ -265,7 +219,6 @@ struct Workspace {
     product: Vec<f64>,
     /// Per particle: Σ_e ±u_e y_e of an edge vector y (only touched particles are valid).
     gathered: Vec<Vector3<f64>>,
-    partials: Vec<f64>,
     /// Positions and velocities kept by [`StrainLimits::project_if_met`].
     saved: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Whether this projection has a factor of `J W Jᵀ` to precondition with.
@@ -462,7 +415,6 @@ impl StrainLimits {
     /// The chosen method, and clamping after a failed projection when `fallback`.
     fn run(&mut self, state: &mut ProjectedState, fallback: bool) -> ProjectionReport {
         let ws = &mut self.ws;
-        ws.edges.resize(self.ends.len(), EdgeState::default());
         (ws.factored, ws.factors_needed) = (false, false);
         ws.active.clear();
         ws.active.resize(self.ends.len(), false);
@@ -509,12 +461,13 @@ impl StrainLimits {
         report: &mut ProjectionReport,
     ) {
         let mut stalled = 0;
-        let initial = self.squared_excess(state.x);
-        let mut latest = initial;
         let holding = !held.is_empty();
+        let constraints: &[Constraint] = if holding { held } else { state.constraints };
+        self.linearise_all(state.x, constraints, state.mass);
+        let initial = self.ws.edges.squared_excess();
+        let mut latest = initial;
         for _ in 0..=NEWTON_ITERATIONS {
-            let constraints: &[Constraint] = if holding { held } else { state.constraints };
-            report.excess_strain = self.linearise(state.x, constraints, state.mass);
+            report.excess_strain = self.update_active_set();
             if report.excess_strain <= STRAIN_TOLERANCE {
                 return;
             }
@@ -525,7 +478,8 @@ impl StrainLimits {
             if report.newton_iterations == NEWTON_ITERATIONS {
                 break;
             }
-            let before = self.squared_excess(state.x);
+            let before = self.ws.edges.squared_excess();
+            let constraints: &[Constraint] = if holding { held } else { state.constraints };
             self.solve_multipliers(constraints, state.mass, Linearisation::New, report);
             let rounds = if self.release == Release::PushingEdges { RELEASE_ROUNDS } else { 0 };
             for _ in 0..rounds {
@@ -550,7 +504,7 @@ impl StrainLimits {
             let mut after = before;
             for _ in 0..BACKTRACKS {
                 self.move_touched(-step, constraints, state);
-                after = self.squared_excess(state.x);
+                after = self.ws.edges.squared_excess();
                 if after < before {
                     break;
                 }
@@ -594,7 +548,7 @@ impl StrainLimits {
         let mut kept = 0;
         for i in 0..before {
             let e = ws.active_list[i];
-            if ws.multiplier[i] < 0.0 && ws.edges[e as usize].violation <= 0.0 {
+            if ws.multiplier[i] < 0.0 && ws.edges.states[e as usize].violation <= 0.0 {
                 ws.active[e as usize] = false;
             } else {
                 ws.active_list[kept] = e;
@@ -606,30 +560,29 @@ impl StrainLimits {
     }
 
     /// Largest strain beyond its limit of an edge at `x` whose ends
-    /// `constraints` let move along it, unitless (what [`Self::linearise`]
-    /// returns, without linearising).
-    fn movable_excess(&self, x: &[Vector3<f64>], constraints: &[Constraint], mass: &[f64]) -> f64 {
-        let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
-        parallel::max(ends.len(), |e| {
-            let edge = edge_state(x, constraints, mass, ends[e], max_length[e]);
-            if is_movable(&edge, ends[e], mass) { (edge.violation / rest[e]).max(0.0) } else { 0.0 }
-        })
+    /// `constraints` let move along it, unitless (what
+    /// [`Self::update_active_set`] returns); linearises every edge there.
+    fn movable_excess(&mut self, x: &[Vector3<f64>], constraints: &[Constraint], mass: &[f64]) -> f64 {
+        self.linearise_all(x, constraints, mass);
+        self.ws.edges.largest_movable_excess()
     }
 
-    /// `Σ_e max(0, C_e / L_e)²` over every edge: what a Newton step must reduce.
-    fn squared_excess(&mut self, x: &[Vector3<f64>]) -> f64 {
-        let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
-        parallel::sum(ends.len(), &mut self.ws.partials, |e| {
-            let [a, b] = ends[e];
-            let excess = ((x[a as usize] - x[b as usize]).norm() - max_length[e]).max(0.0) / rest[e];
-            excess * excess
-        })
+    /// Linearises every edge at `x` under `constraints`.
+    fn linearise_all(&mut self, x: &[Vector3<f64>], constraints: &[Constraint], mass: &[f64]) {
+        let limits = EdgeLimits {
+            ends: &self.ends,
+            rest_length: &self.rest_length,
+            max_length: &self.max_length,
+            near_limit: NEAR_LIMIT,
+        };
+        self.ws.edges.linearise_all(limits, Particles { x, constraints, mass });
     }
 
     /// Per-edge clamping sweeps until the strain is within tolerance.
     fn clamp(&mut self, state: &mut ProjectedState, report: &mut ProjectionReport) {
         for _ in 0..CLAMP_SWEEPS {
-            report.excess_strain = self.linearise(state.x, state.constraints, state.mass);
+            self.linearise_all(state.x, state.constraints, state.mass);
+            report.excess_strain = self.update_active_set();
             if report.excess_strain <= STRAIN_TOLERANCE {
                 return;
             }
@@ -645,22 +598,16 @@ impl StrainLimits {
         report.excess_strain = self.excess_strain(state.x);
     }
 
-    /// Directions, constraint values and `J W Jᵀ` diagonal of every edge at
-    /// `x` (the gradient at the current iterate, as in fast projection).
-    /// Movable edges within [`NEAR_LIMIT`] of their limit join the active
-    /// set and stay, unless the projection holds instead of releasing
-    /// ([`Release::Never`]): then an edge leaves once it is further from its
-    /// limit than that. Returns the largest strain beyond the limit among
-    /// movable edges.
-    fn linearise(&mut self, x: &[Vector3<f64>], constraints: &[Constraint], mass: &[f64]) -> f64 {
+    /// Brings the active set up to the current linearisation: movable
+    /// edges within [`NEAR_LIMIT`] of their limit join it and stay, unless
+    /// the projection holds instead of releasing ([`Release::Never`]): then
+    /// an edge leaves once it is further from its limit than that. Returns
+    /// the largest strain beyond the limit among movable edges.
+    fn update_active_set(&mut self) -> f64 {
         let ws = &mut self.ws;
-        let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
-        par_each(&mut ws.edges, |e, state| *state = edge_state(x, constraints, mass, ends[e], max_length[e]));
-        let movable = |e: usize| is_movable(&ws.edges[e], ends[e], mass);
         let holding = self.release == Release::Never;
         let mut dropped = false;
-        for e in 0..ends.len() {
-            let near = ws.edges[e].violation > -NEAR_LIMIT * rest[e] && movable(e);
+        for (e, &near) in ws.edges.near.iter().enumerate() {
             if holding && ws.active[e] && !near {
                 ws.active[e] = false;
                 dropped = true;
@@ -668,7 +615,7 @@ impl StrainLimits {
             if !ws.active[e] && near {
                 ws.active[e] = true;
                 ws.active_list.push(e as u32);
-                for v in ends[e] {
+                for v in self.ends[e] {
                     if !ws.is_touched[v as usize] {
                         ws.is_touched[v as usize] = true;
                         ws.touched.push(v);
@@ -681,8 +628,7 @@ impl StrainLimits {
             ws.active_list.retain(|&e| active[e as usize]);
         }
         ws.active_list.sort_unstable();
-        let edges = &ws.edges;
-        parallel::max(ends.len(), |e| if movable(e) { (edges[e].violation / rest[e]).max(0.0) } else { 0.0 })
+        ws.edges.largest_movable_excess()
     }
 
     /// Solves `(J W Jᵀ) μ = C` on the active edges by conjugate gradients,
@@ -748,7 +694,7 @@ impl StrainLimits {
     fn factor(&mut self, constraints: &[Constraint], mass: &[f64]) -> bool {
         self.direct_solver(mass.len());
         let DirectSolver::Ready(system) = &mut self.direct else { return false };
-        let (ws, edges) = (&self.ws, &self.ws.edges);
+        let (ws, edges) = (&self.ws, &self.ws.edges.states);
         let row = |e: usize| EdgeRow { direction: edges[e].direction, diagonal: edges[e].diagonal };
         system.factor(&ws.active_list, &ws.active, row, constraints, mass).is_ok()
     }
@@ -762,7 +708,7 @@ impl StrainLimits {
             }
             _ => {
                 for (i, &e) in ws.active_list.iter().enumerate() {
-                    ws.preconditioned[i] = ws.residual[i] / ws.edges[e as usize].diagonal;
+                    ws.preconditioned[i] = ws.residual[i] / ws.edges.states[e as usize].diagonal;
                 }
             }
         }
@@ -786,7 +732,7 @@ impl StrainLimits {
         }
         for (i, &e) in ws.active_list.iter().enumerate() {
             ws.multiplier[i] = 0.0;
-            ws.residual[i] = ws.edges[e as usize].violation;
+            ws.residual[i] = ws.edges.states[e as usize].violation;
         }
         let norm_b = dot(&ws.residual, &ws.residual).sqrt();
         if norm_b == 0.0 {
@@ -837,7 +783,7 @@ impl StrainLimits {
         };
         for (i, &e) in ws.active_list.iter().enumerate() {
             let [a, b] = self.ends[e as usize];
-            let force = ws.edges[e as usize].direction * values[i];
+            let force = ws.edges.states[e as usize].direction * values[i];
             ws.gathered[a as usize] += force;
             ws.gathered[b as usize] -= force;
         }
@@ -849,20 +795,29 @@ impl StrainLimits {
         let weighted = |v: u32| constraints[v as usize].filter(ws.gathered[v as usize]) / mass[v as usize];
         for (i, &e) in ws.active_list.iter().enumerate() {
             let [a, b] = self.ends[e as usize];
-            let edge = &ws.edges[e as usize];
+            let edge = &ws.edges.states[e as usize];
             ws.product[i] = edge.direction.dot(&(weighted(a) - weighted(b)));
         }
     }
 
-    /// `x += scale · W gathered`, `v += scale · W gathered / h` on the touched particles.
+    /// `x += scale · W gathered`, `v += scale · W gathered / h` on the
+    /// touched particles, and linearises their edges again.
     fn move_touched(&mut self, scale: f64, constraints: &[Constraint], state: &mut ProjectedState) {
-        let ws = &self.ws;
+        let ws = &mut self.ws;
         for &v in &ws.touched {
             let v = v as usize;
             let delta = constraints[v].filter(ws.gathered[v]) * (scale / state.mass[v]);
             state.x[v] += delta;
             state.v[v] += delta / state.h;
         }
+        let limits = EdgeLimits {
+            ends: &self.ends,
+            rest_length: &self.rest_length,
+            max_length: &self.max_length,
+            near_limit: NEAR_LIMIT,
+        };
+        let particles = Particles { x: state.x, constraints, mass: state.mass };
+        ws.edges.update_at(&ws.touched, &self.incidence, limits, particles);
     }
 
     /// One Jacobi clamping sweep into `gathered` (the position change of each
@@ -871,7 +826,7 @@ impl StrainLimits {
     /// mass-weighted move); each particle moves by the mean of what its edges ask.
     fn clamp_sweep(&mut self, constraints: &[Constraint], mass: &[f64]) {
         let ws = &mut self.ws;
-        let (edges, incidence) = (&ws.edges, &self.incidence);
+        let (edges, incidence) = (&ws.edges.states, &self.incidence);
         for &v in &ws.touched {
             let (mut sum, mut count) = (Vector3::zeros(), 0.0);
             for (e, sign) in incidence.of(v as usize) {
@@ -927,28 +882,6 @@ enum Linearisation {
 enum Compact {
     Search,
     Multiplier,
-}
-
-/// Edge `[a, b]` with maximal length `max_length` (m) linearised at `x`.
-fn edge_state(
-    x: &[Vector3<f64>],
-    constraints: &[Constraint],
-    mass: &[f64],
-    [a, b]: [u32; 2],
-    max_length: f64,
-) -> EdgeState {
-    let weight = |v: u32, d: &Vector3<f64>| constraints[v as usize].filter(*d).dot(d) / mass[v as usize];
-    let edge = x[a as usize] - x[b as usize];
-    let length = edge.norm();
-    let direction = if length > 0.0 { edge / length } else { Vector3::zeros() };
-    let diagonal = weight(a, &direction) + weight(b, &direction);
-    EdgeState { direction, violation: length - max_length, diagonal }
-}
-
-/// Whether `edge`'s ends can move along it (its `J W Jᵀ` diagonal is more
-/// than round-off of its ends' inverse masses).
-fn is_movable(edge: &EdgeState, [a, b]: [u32; 2], mass: &[f64]) -> bool {
-    edge.diagonal > 1e-12 * (1.0 / mass[a as usize] + 1.0 / mass[b as usize])
 }
 
 /// `p · q`, in order.
@@ -1128,7 +1061,11 @@ mod tests {
         let (cloth, mut x, constraints) = wrung_tube(120.0);
         let start = x.clone();
         let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
-        let before = limits.squared_excess(&x);
+        let squared_excess = |limits: &StrainLimits, x: &[Vector3<f64>]| -> f64 {
+            let lengths = limits.lengths(x).zip(&limits.max_length).zip(&limits.rest_length);
+            lengths.map(|((l, max), rest)| ((l - max).max(0.0) / rest).powi(2)).sum()
+        };
+        let before = squared_excess(&limits, &x);
         let holds: Vec<(u32, Vector3<f64>)> = (0..x.len() as u32)
             .step_by(3)
             .map(|i| (i, Vector3::new(0.0, x[i as usize].y, x[i as usize].z).normalize()))
@@ -1137,7 +1074,8 @@ mod tests {
         let state = ProjectedState { x: &mut x, v: &mut v, constraints: &constraints, mass: &cloth.mass, h: 0.01 };
         let report = limits.project_holding(state, &holds);
         assert!(report.partial && report.newton_iterations > 0, "{report:?}");
-        assert!(limits.squared_excess(&x) < before, "{} against {before}", limits.squared_excess(&x));
+        let after = squared_excess(&limits, &x);
+        assert!(after < before, "{after} against {before}");
         for &(i, n) in &holds {
             let i = i as usize;
             assert!((x[i] - start[i]).dot(&n) >= -1e-9, "particle {i} moved back: {}", x[i] - start[i]);

@@ -17,6 +17,7 @@ pub mod fabric;
 pub mod forces;
 pub mod implicit;
 pub mod inextensibility;
+pub mod limit_edges;
 pub mod llt;
 pub mod motion;
 pub mod multigrid;

@@ -1,0 +1,324 @@
+//! The strain-limited edges linearised at the current positions, for the
+//! projection of [`super::inextensibility`]: each edge's direction, constraint
+//! value and `J W Jᵀ` diagonal, whether it is near its limit, and per chunk of
+//! edges the largest excess and the sum of squared excesses.
+//!
+//! A projection linearises every edge once, where the solve or the collision
+//! pass left the cloth, and from then on moves only the particles at the ends
+//! of its active edges. After such a move only the edges at those particles
+//! are linearised again ([`LinearisedEdges::update_at`]) and only their
+//! chunks' summaries are redone: a few hundred edges instead of every edge of
+//! the garment, several times per projection. Each summary is taken over its
+//! chunk in edge order and the summaries are combined in chunk order, as a
+//! full pass does at any thread count, so the figures do not depend on which
+//! edges were redone.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::parallel::{CHUNK, PARALLEL_FROM, chunk_count};
+use super::pcg::Constraint;
+
+/// Edges incident to each particle, with the side the particle is on.
+#[derive(Clone, Debug)]
+pub(super) struct Incidence {
+    /// `start[v]..start[v + 1]` indexes `edges` for particle `v`.
+    start: Vec<u32>,
+    /// Edge index times two, plus 1 when the particle is the edge's second end.
+    edges: Vec<u32>,
+}
+
+impl Incidence {
+    /// The incidence of `ends` (each edge's two particles) over `vertex_count` particles.
+    pub(super) fn new(vertex_count: usize, ends: &[[u32; 2]]) -> Self {
+        let mut count = vec![0u32; vertex_count + 1];
+        for [a, b] in ends {
+            count[*a as usize + 1] += 1;
+            count[*b as usize + 1] += 1;
+        }
+        for v in 0..vertex_count {
+            count[v + 1] += count[v];
+        }
+        let mut fill = count.clone();
+        let mut edges = vec![0u32; count[vertex_count] as usize];
+        for (e, [a, b]) in ends.iter().enumerate() {
+            for (side, v) in [(0, *a), (1, *b)] {
+                edges[fill[v as usize] as usize] = 2 * e as u32 + side;
+                fill[v as usize] += 1;
+            }
+        }
+        Incidence { start: count, edges }
+    }
+
+    /// `(edge, sign)` of each edge at particle `v`: sign +1 at the first end, −1 at the second.
+    pub(super) fn of(&self, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let range = self.start[v] as usize..self.start[v + 1] as usize;
+        self.edges[range].iter().map(|&k| ((k / 2) as usize, if k % 2 == 0 { 1.0 } else { -1.0 }))
+    }
+}
+
+/// One constrained edge linearised at the current iterate.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct EdgeState {
+    /// Unit direction from the second end to the first (∂C/∂x_a).
+    pub direction: Vector3<f64>,
+    /// Constraint value C = |x_a − x_b| − (1 + ε) L, m.
+    pub violation: f64,
+    /// Diagonal entry of J W Jᵀ, 1/kg; 0 when neither end can move along the edge.
+    pub diagonal: f64,
+}
+
+/// The constrained edges, as a linearisation reads them.
+#[derive(Clone, Copy)]
+pub(super) struct EdgeLimits<'a> {
+    /// Each edge's two particles.
+    pub ends: &'a [[u32; 2]],
+    /// Each edge's rest length `L`, m.
+    pub rest_length: &'a [f64],
+    /// Each edge's maximal length `(1 + ε) L`, m.
+    pub max_length: &'a [f64],
+    /// Strain below its limit from which a movable edge counts as near it, unitless.
+    pub near_limit: f64,
+}
+
+/// The particles, as a linearisation reads them.
+#[derive(Clone, Copy)]
+pub(super) struct Particles<'a> {
+    /// Positions, m.
+    pub x: &'a [Vector3<f64>],
+    /// What each particle may do (pinned, on a surface, held, free).
+    pub constraints: &'a [Constraint],
+    /// Masses, kg.
+    pub mass: &'a [f64],
+}
+
+/// What a chunk of edges contributes to the projection's figures.
+#[derive(Clone, Copy, Debug, Default)]
+struct ChunkSummary {
+    /// Largest strain beyond its limit of a movable edge, unitless (0 when none is over).
+    largest_movable_excess: f64,
+    /// `Σ_e max(0, C_e / L_e)²` over the chunk's edges, unitless.
+    squared_excess: f64,
+}
+
+/// Every constrained edge linearised at the current positions, with each
+/// chunk's summary (see the module documentation).
+#[derive(Clone, Debug, Default)]
+pub(super) struct LinearisedEdges {
+    /// Per edge.
+    pub states: Vec<EdgeState>,
+    /// Per edge: movable, and over its limit or within `near_limit` of it.
+    pub near: Vec<bool>,
+    /// Per chunk of [`CHUNK`] edges.
+    summaries: Vec<ChunkSummary>,
+    /// Per chunk: an edge of it was linearised again since its summary.
+    stale: Vec<bool>,
+    /// The stale chunks.
+    stale_list: Vec<u32>,
+}
+
+impl LinearisedEdges {
+    /// Linearises every edge at `particles`, in parallel chunks.
+    pub fn linearise_all(&mut self, edges: EdgeLimits, particles: Particles) {
+        let n = edges.ends.len();
+        self.states.resize(n, EdgeState::default());
+        self.near.resize(n, false);
+        self.summaries.resize(chunk_count(n), ChunkSummary::default());
+        self.stale.clear();
+        self.stale.resize(chunk_count(n), false);
+        self.stale_list.clear();
+        let (states, near, summaries) = (&mut self.states, &mut self.near, &mut self.summaries);
+        if n < PARALLEL_FROM {
+            states.chunks_mut(CHUNK).zip(near.chunks_mut(CHUNK)).zip(summaries.iter_mut()).enumerate().for_each(
+                |(c, ((states, near), summary))| {
+                    *summary = linearise_chunk(c * CHUNK, states, near, edges, particles);
+                },
+            );
+        } else {
+            states
+                .par_chunks_mut(CHUNK)
+                .zip(near.par_chunks_mut(CHUNK))
+                .zip(summaries.par_iter_mut())
+                .enumerate()
+                .for_each(|(c, ((states, near), summary))| {
+                    *summary = linearise_chunk(c * CHUNK, states, near, edges, particles);
+                });
+        }
+    }
+
+    /// Linearises again, at `particles`, every edge at one of `moved` (the
+    /// only particles that moved, or whose constraints changed, since the
+    /// last linearisation), and redoes the summaries of their chunks.
+    pub fn update_at(&mut self, moved: &[u32], incidence: &Incidence, edges: EdgeLimits, particles: Particles) {
+        for &v in moved {
+            for (e, _) in incidence.of(v as usize) {
+                self.states[e] = edge_state(particles, edges.ends[e], edges.max_length[e]);
+                self.near[e] = is_near(&self.states[e], e, edges, particles.mass);
+                let c = e / CHUNK;
+                if !self.stale[c] {
+                    self.stale[c] = true;
+                    self.stale_list.push(c as u32);
+                }
+            }
+        }
+        for &c in &self.stale_list {
+            let c = c as usize;
+            let range = c * CHUNK..((c + 1) * CHUNK).min(self.states.len());
+            self.summaries[c] = summarise(range.start, &self.states[range], edges, particles.mass);
+            self.stale[c] = false;
+        }
+        self.stale_list.clear();
+    }
+
+    /// Largest strain beyond its limit of a movable edge, unitless (0 when all are within).
+    pub fn largest_movable_excess(&self) -> f64 {
+        self.summaries.iter().fold(0.0, |largest, s| largest.max(s.largest_movable_excess))
+    }
+
+    /// `Σ_e max(0, C_e / L_e)²` over every edge, unitless: what a Newton step must reduce.
+    pub fn squared_excess(&self) -> f64 {
+        self.summaries.iter().map(|s| s.squared_excess).sum()
+    }
+}
+
+/// Linearises the chunk of edges from `first` into `states` and `near`, and returns its summary.
+fn linearise_chunk(
+    first: usize,
+    states: &mut [EdgeState],
+    near: &mut [bool],
+    edges: EdgeLimits,
+    particles: Particles,
+) -> ChunkSummary {
+    for (k, (state, near)) in states.iter_mut().zip(near.iter_mut()).enumerate() {
+        let e = first + k;
+        *state = edge_state(particles, edges.ends[e], edges.max_length[e]);
+        *near = is_near(state, e, edges, particles.mass);
+    }
+    summarise(first, states, edges, particles.mass)
+}
+
+/// The summary of the chunk of `states` whose first edge is `first`.
+fn summarise(first: usize, states: &[EdgeState], edges: EdgeLimits, mass: &[f64]) -> ChunkSummary {
+    let mut summary = ChunkSummary::default();
+    for (k, state) in states.iter().enumerate() {
+        let e = first + k;
+        let excess = state.violation.max(0.0) / edges.rest_length[e];
+        summary.squared_excess += excess * excess;
+        if is_movable(state, edges.ends[e], mass) {
+            let movable_excess = (state.violation / edges.rest_length[e]).max(0.0);
+            summary.largest_movable_excess = summary.largest_movable_excess.max(movable_excess);
+        }
+    }
+    summary
+}
+
+/// Whether edge `e` in `state` is movable and over its limit or within the near margin of it.
+fn is_near(state: &EdgeState, e: usize, edges: EdgeLimits, mass: &[f64]) -> bool {
+    state.violation > -edges.near_limit * edges.rest_length[e] && is_movable(state, edges.ends[e], mass)
+}
+
+/// Edge `[a, b]` with maximal length `max_length` (m) linearised at `particles`.
+fn edge_state(particles: Particles, [a, b]: [u32; 2], max_length: f64) -> EdgeState {
+    let Particles { x, constraints, mass } = particles;
+    let weight = |v: u32, d: &Vector3<f64>| constraints[v as usize].filter(*d).dot(d) / mass[v as usize];
+    let edge = x[a as usize] - x[b as usize];
+    let length = edge.norm();
+    let direction = if length > 0.0 { edge / length } else { Vector3::zeros() };
+    let diagonal = weight(a, &direction) + weight(b, &direction);
+    EdgeState { direction, violation: length - max_length, diagonal }
+}
+
+/// Whether `edge`'s ends can move along it (its `J W Jᵀ` diagonal is more
+/// than round-off of its ends' inverse masses).
+fn is_movable(edge: &EdgeState, [a, b]: [u32; 2], mass: &[f64]) -> bool {
+    edge.diagonal > 1e-12 * (1.0 / mass[a as usize] + 1.0 / mass[b as usize])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A strip of squares (two triangles each) along X with a 10 % limit.
+    struct Strip {
+        ends: Vec<[u32; 2]>,
+        rest_length: Vec<f64>,
+        max_length: Vec<f64>,
+        /// Stretched by 12 % along X, with a wave.
+        x: Vec<Vector3<f64>>,
+    }
+
+    /// A strip of `n` squares.
+    fn stretched_strip(n: usize) -> Strip {
+        let vertex = |i: usize, j: usize| (2 * i + j) as u32;
+        let mut ends = Vec::new();
+        for i in 0..n {
+            ends.extend([
+                [vertex(i, 0), vertex(i + 1, 0)],
+                [vertex(i, 1), vertex(i + 1, 1)],
+                [vertex(i, 0), vertex(i + 1, 1)],
+            ]);
+            ends.push([vertex(i, 0), vertex(i, 1)]);
+        }
+        ends.push([vertex(n, 0), vertex(n, 1)]);
+        let rest = |i: usize, j: usize| Vector3::new(i as f64, 0.0, j as f64);
+        let rest_length: Vec<f64> = ends
+            .iter()
+            .map(|[a, b]| (rest(*a as usize / 2, *a as usize % 2) - rest(*b as usize / 2, *b as usize % 2)).norm())
+            .collect();
+        let max_length = rest_length.iter().map(|l| 1.1 * l).collect();
+        let x = (0..2 * (n + 1))
+            .map(|k| Vector3::new(1.12 * (k / 2) as f64, 0.1 * ((k / 2) as f64).sin(), (k % 2) as f64))
+            .collect();
+        Strip { ends, rest_length, max_length, x }
+    }
+
+    #[test]
+    fn updating_the_moved_edges_gives_the_bits_of_a_full_linearisation() {
+        let Strip { ends, rest_length, max_length, mut x } = stretched_strip(400);
+        let edges = EdgeLimits { ends: &ends, rest_length: &rest_length, max_length: &max_length, near_limit: 1e-3 };
+        let mass = vec![0.01; x.len()];
+        let mut constraints = vec![Constraint::Free; x.len()];
+        constraints[0] = Constraint::Fixed;
+        let incidence = Incidence::new(x.len(), &ends);
+        let mut updated = LinearisedEdges::default();
+        updated.linearise_all(edges, Particles { x: &x, constraints: &constraints, mass: &mass });
+        let moved: Vec<u32> = vec![3, 4, 5, 300, 301, 801];
+        for &v in &moved {
+            x[v as usize] += Vector3::new(-0.07, 0.01 * v as f64, 0.02);
+        }
+        constraints[4] = Constraint::Normal(Vector3::y());
+        let particles = Particles { x: &x, constraints: &constraints, mass: &mass };
+        updated.update_at(&moved, &incidence, edges, particles);
+        let mut full = LinearisedEdges::default();
+        full.linearise_all(edges, particles);
+        for (a, b) in updated.states.iter().zip(&full.states) {
+            assert_eq!(a.direction, b.direction);
+            assert_eq!((a.violation.to_bits(), a.diagonal.to_bits()), (b.violation.to_bits(), b.diagonal.to_bits()));
+        }
+        assert_eq!(updated.near, full.near);
+        assert_eq!(updated.squared_excess().to_bits(), full.squared_excess().to_bits());
+        assert_eq!(updated.largest_movable_excess(), full.largest_movable_excess());
+    }
+
+    #[test]
+    fn the_summaries_are_the_excess_of_each_edge_beyond_its_limit() {
+        let Strip { ends, rest_length, max_length, x } = stretched_strip(3);
+        let edges = EdgeLimits { ends: &ends, rest_length: &rest_length, max_length: &max_length, near_limit: 1e-3 };
+        let mass = vec![0.01; x.len()];
+        let constraints = vec![Constraint::Free; x.len()];
+        let mut linearised = LinearisedEdges::default();
+        linearised.linearise_all(edges, Particles { x: &x, constraints: &constraints, mass: &mass });
+        let excess: Vec<f64> = ends
+            .iter()
+            .zip(&max_length)
+            .zip(&rest_length)
+            .map(|(([a, b], max), rest)| ((x[*a as usize] - x[*b as usize]).norm() - max).max(0.0) / rest)
+            .collect();
+        let squared: f64 = excess.iter().map(|e| e * e).sum();
+        assert!((linearised.squared_excess() - squared).abs() < 1e-15);
+        assert_eq!(linearised.largest_movable_excess(), excess.iter().fold(0.0, |m: f64, e| m.max(*e)));
+        // The rungs (Z) are unstretched, the rails (X) 12 % long against a 10 % limit.
+        assert!(!linearised.near[3] && linearised.near[0]);
+        assert!(linearised.largest_movable_excess() > 0.015);
+    }
+}
