@@ -53,7 +53,7 @@ use serde::{Deserialize, Serialize};
 
 use super::cloth::{Cloth, SpringKind};
 use super::edge_system::{EdgeRow, EdgeSystem};
-use super::limit_edges::{EdgeLimits, Incidence, LinearisedEdges, Particles};
+use super::limit_edges::{EdgeSet, LinearisedEdges, Particles};
 use super::parallel;
 use super::pcg::Constraint;
 
@@ -66,12 +66,6 @@ const NEWTON_ITERATIONS: u32 = 30;
 /// Rounds per Newton iteration of releasing edges whose multiplier pushes
 /// and solving again (a primal active-set method on the inequalities).
 const RELEASE_ROUNDS: u32 = 4;
-
-/// Edges within this strain of their limit join the active set before they
-/// exceed it (the multipliers release those that would push): a cloth
-/// hanging on its constraints keeps them from step to step, and the Newton
-/// iterations need not discover them one ring at a time.
-const NEAR_LIMIT: f64 = 1e-3;
 
 /// Halvings of a Newton step that does not reduce the excess.
 const BACKTRACKS: u32 = 6;
@@ -202,7 +196,7 @@ pub struct ProjectedState<'a> {
 #[derive(Clone, Debug, Default)]
 struct Workspace {
     /// Every edge linearised at the current iterate.
-    edges: LinearisedEdges,
+    linearised: LinearisedEdges,
     /// Per edge: in the active set.
     active: Vec<bool>,
     /// The active edges, ascending.
@@ -241,13 +235,10 @@ enum DirectSolver {
 #[derive(Clone, Debug)]
 pub struct StrainLimits {
     method: StrainLimiting,
-    ends: Vec<[u32; 2]>,
-    rest_length: Vec<f64>,
-    /// `(1 + ε) L` per edge, m (infinite without a limit).
-    max_length: Vec<f64>,
+    /// The stretch edges and their maximal lengths.
+    edges: EdgeSet,
     /// Garment of each edge.
     edge_garment: Vec<u32>,
-    incidence: Incidence,
     ws: Workspace,
     direct: DirectSolver,
     /// Whether the projection under way releases pushing edges.
@@ -281,21 +272,17 @@ impl StrainLimits {
                 }
             }
         }
-        let incidence = Incidence::new(cloth.vertex_count(), &ends);
         let mut limits = StrainLimits {
             method,
-            ends,
-            rest_length,
-            max_length: Vec::new(),
+            edges: EdgeSet::new(cloth.vertex_count(), ends, rest_length),
             edge_garment,
-            incidence,
             ws: Workspace::default(),
             direct: DirectSolver::default(),
             release: Release::PushingEdges,
             holds: Vec::new(),
             held: Vec::new(),
         };
-        limits.max_length = limits.max_lengths_for(cloth);
+        limits.edges.max_length = limits.max_lengths_for(cloth);
         Some(limits)
     }
 
@@ -303,35 +290,37 @@ impl StrainLimits {
     /// (infinite where the garment has no limit).
     pub fn max_lengths_for(&self, cloth: &Cloth) -> Vec<f64> {
         let limit = |e: usize| cloth.garments[self.edge_garment[e] as usize].fabric.strain_limit;
-        (0..self.ends.len()).map(|e| limit(e).map_or(f64::INFINITY, |l| (1.0 + l) * self.rest_length[e])).collect()
+        (0..self.edges.ends.len())
+            .map(|e| limit(e).map_or(f64::INFINITY, |l| (1.0 + l) * self.edges.rest_length[e]))
+            .collect()
     }
 
     /// Each edge's maximal length in use, m.
     pub fn max_lengths(&self) -> &[f64] {
-        &self.max_length
+        &self.edges.max_length
     }
 
     /// Sets each edge's maximal length (m) from its index.
     pub fn set_max_lengths(&mut self, length: impl Fn(usize) -> f64) {
-        for (e, l) in self.max_length.iter_mut().enumerate() {
+        for (e, l) in self.edges.max_length.iter_mut().enumerate() {
             *l = length(e);
         }
     }
 
     /// Each edge's length at `x`, m.
     pub fn lengths<'a>(&'a self, x: &'a [Vector3<f64>]) -> impl Iterator<Item = f64> + 'a {
-        self.ends.iter().map(move |[a, b]| (x[*a as usize] - x[*b as usize]).norm())
+        self.edges.ends.iter().map(move |[a, b]| (x[*a as usize] - x[*b as usize]).norm())
     }
 
     /// Number of constrained edges.
     pub fn edge_count(&self) -> usize {
-        self.ends.len()
+        self.edges.ends.len()
     }
 
     /// Largest strain beyond its limit of any constrained edge at `x` (0 when
     /// all are within), unitless.
     pub fn excess_strain(&self, x: &[Vector3<f64>]) -> f64 {
-        let (ends, max_length, rest) = (&self.ends, &self.max_length, &self.rest_length);
+        let (ends, max_length, rest) = (&self.edges.ends, &self.edges.max_length, &self.edges.rest_length);
         parallel::max(ends.len(), |e| {
             let [a, b] = ends[e];
             ((x[a as usize] - x[b as usize]).norm() - max_length[e]).max(0.0) / rest[e]
@@ -384,9 +373,13 @@ impl StrainLimits {
         self.holds.extend_from_slice(holds);
         self.release = Release::Never;
         let mut report = self.run(&mut state, false);
+        // The holds' own excess leaves out the edges they immobilised: their
+        // edges are linearised again without the holds that still apply.
+        let particles = Particles { x: state.x, constraints: state.constraints, mass: state.mass };
+        let held = self.holds.iter().map(|(v, _)| *v);
+        self.ws.linearised.update_at(held, &self.edges, particles);
+        report.excess_strain = self.ws.linearised.largest_movable_excess();
         self.holds.clear();
-        // The holds' own excess leaves out the edges they immobilised.
-        report.excess_strain = self.movable_excess(state.x, state.constraints, state.mass);
         report.partial = report.excess_strain > STRAIN_TOLERANCE;
         (report.fell_back, report.stalled) = (false, false);
         report
@@ -417,7 +410,7 @@ impl StrainLimits {
         let ws = &mut self.ws;
         (ws.factored, ws.factors_needed) = (false, false);
         ws.active.clear();
-        ws.active.resize(self.ends.len(), false);
+        ws.active.resize(self.edges.ends.len(), false);
         ws.active_list.clear();
         ws.is_touched.clear();
         ws.is_touched.resize(state.x.len(), false);
@@ -464,7 +457,7 @@ impl StrainLimits {
         let holding = !held.is_empty();
         let constraints: &[Constraint] = if holding { held } else { state.constraints };
         self.linearise_all(state.x, constraints, state.mass);
-        let initial = self.ws.edges.squared_excess();
+        let initial = self.ws.linearised.squared_excess();
         let mut latest = initial;
         for _ in 0..=NEWTON_ITERATIONS {
             report.excess_strain = self.update_active_set();
@@ -478,7 +471,7 @@ impl StrainLimits {
             if report.newton_iterations == NEWTON_ITERATIONS {
                 break;
             }
-            let before = self.ws.edges.squared_excess();
+            let before = self.ws.linearised.squared_excess();
             let constraints: &[Constraint] = if holding { held } else { state.constraints };
             self.solve_multipliers(constraints, state.mass, Linearisation::New, report);
             let rounds = if self.release == Release::PushingEdges { RELEASE_ROUNDS } else { 0 };
@@ -504,7 +497,7 @@ impl StrainLimits {
             let mut after = before;
             for _ in 0..BACKTRACKS {
                 self.move_touched(-step, constraints, state);
-                after = self.ws.edges.squared_excess();
+                after = self.ws.linearised.squared_excess();
                 if after < before {
                     break;
                 }
@@ -548,7 +541,7 @@ impl StrainLimits {
         let mut kept = 0;
         for i in 0..before {
             let e = ws.active_list[i];
-            if ws.multiplier[i] < 0.0 && ws.edges.states[e as usize].violation <= 0.0 {
+            if ws.multiplier[i] < 0.0 && ws.linearised.states[e as usize].violation <= 0.0 {
                 ws.active[e as usize] = false;
             } else {
                 ws.active_list[kept] = e;
@@ -559,47 +552,35 @@ impl StrainLimits {
         kept < before
     }
 
-    /// Largest strain beyond its limit of an edge at `x` whose ends
-    /// `constraints` let move along it, unitless (what
-    /// [`Self::update_active_set`] returns); linearises every edge there.
-    fn movable_excess(&mut self, x: &[Vector3<f64>], constraints: &[Constraint], mass: &[f64]) -> f64 {
-        self.linearise_all(x, constraints, mass);
-        self.ws.edges.largest_movable_excess()
-    }
-
     /// Linearises every edge at `x` under `constraints`.
     fn linearise_all(&mut self, x: &[Vector3<f64>], constraints: &[Constraint], mass: &[f64]) {
-        let limits = EdgeLimits {
-            ends: &self.ends,
-            rest_length: &self.rest_length,
-            max_length: &self.max_length,
-            near_limit: NEAR_LIMIT,
-        };
-        self.ws.edges.linearise_all(limits, Particles { x, constraints, mass });
+        self.ws.linearised.linearise_all(&self.edges, Particles { x, constraints, mass });
     }
 
     /// Per-edge clamping sweeps until the strain is within tolerance.
     fn clamp(&mut self, state: &mut ProjectedState, report: &mut ProjectionReport) {
+        self.linearise_all(state.x, state.constraints, state.mass);
         for _ in 0..CLAMP_SWEEPS {
-            self.linearise_all(state.x, state.constraints, state.mass);
             report.excess_strain = self.update_active_set();
             if report.excess_strain <= STRAIN_TOLERANCE {
                 return;
             }
             report.clamp_sweeps += 1;
             self.clamp_sweep(state.constraints, state.mass);
-            let (gathered, touched) = (&self.ws.gathered, &self.ws.touched);
-            for &v in touched {
-                let delta = gathered[v as usize];
+            let ws = &mut self.ws;
+            for &v in &ws.touched {
+                let delta = ws.gathered[v as usize];
                 state.x[v as usize] += delta;
                 state.v[v as usize] += delta / state.h;
             }
+            let particles = Particles { x: state.x, constraints: state.constraints, mass: state.mass };
+            ws.linearised.update_at(ws.touched.iter().copied(), &self.edges, particles);
         }
         report.excess_strain = self.excess_strain(state.x);
     }
 
     /// Brings the active set up to the current linearisation: movable
-    /// edges within [`NEAR_LIMIT`] of their limit join it and stay, unless
+    /// edges within [`NEAR_LIMIT`](super::limit_edges::NEAR_LIMIT) of their limit join it and stay, unless
     /// the projection holds instead of releasing ([`Release::Never`]): then
     /// an edge leaves once it is further from its limit than that. Returns
     /// the largest strain beyond the limit among movable edges.
@@ -607,7 +588,7 @@ impl StrainLimits {
         let ws = &mut self.ws;
         let holding = self.release == Release::Never;
         let mut dropped = false;
-        for (e, &near) in ws.edges.near.iter().enumerate() {
+        for (e, &near) in ws.linearised.near.iter().enumerate() {
             if holding && ws.active[e] && !near {
                 ws.active[e] = false;
                 dropped = true;
@@ -615,7 +596,7 @@ impl StrainLimits {
             if !ws.active[e] && near {
                 ws.active[e] = true;
                 ws.active_list.push(e as u32);
-                for v in self.ends[e] {
+                for v in self.edges.ends[e] {
                     if !ws.is_touched[v as usize] {
                         ws.is_touched[v as usize] = true;
                         ws.touched.push(v);
@@ -628,7 +609,7 @@ impl StrainLimits {
             ws.active_list.retain(|&e| active[e as usize]);
         }
         ws.active_list.sort_unstable();
-        ws.edges.largest_movable_excess()
+        ws.linearised.largest_movable_excess()
     }
 
     /// Solves `(J W Jᵀ) μ = C` on the active edges by conjugate gradients,
@@ -681,7 +662,7 @@ impl StrainLimits {
     /// The direct solver, analysed on first use.
     fn direct_solver(&mut self, vertex_count: usize) -> &mut DirectSolver {
         if matches!(self.direct, DirectSolver::NotNeededYet) {
-            self.direct = match EdgeSystem::new(vertex_count, &self.ends) {
+            self.direct = match EdgeSystem::new(vertex_count, &self.edges.ends) {
                 Ok(system) => DirectSolver::Ready(Box::new(system)),
                 Err(_) => DirectSolver::Unavailable,
             };
@@ -694,7 +675,7 @@ impl StrainLimits {
     fn factor(&mut self, constraints: &[Constraint], mass: &[f64]) -> bool {
         self.direct_solver(mass.len());
         let DirectSolver::Ready(system) = &mut self.direct else { return false };
-        let (ws, edges) = (&self.ws, &self.ws.edges.states);
+        let (ws, edges) = (&self.ws, &self.ws.linearised.states);
         let row = |e: usize| EdgeRow { direction: edges[e].direction, diagonal: edges[e].diagonal };
         system.factor(&ws.active_list, &ws.active, row, constraints, mass).is_ok()
     }
@@ -708,7 +689,7 @@ impl StrainLimits {
             }
             _ => {
                 for (i, &e) in ws.active_list.iter().enumerate() {
-                    ws.preconditioned[i] = ws.residual[i] / ws.edges.states[e as usize].diagonal;
+                    ws.preconditioned[i] = ws.residual[i] / ws.linearised.states[e as usize].diagonal;
                 }
             }
         }
@@ -732,7 +713,7 @@ impl StrainLimits {
         }
         for (i, &e) in ws.active_list.iter().enumerate() {
             ws.multiplier[i] = 0.0;
-            ws.residual[i] = ws.edges.states[e as usize].violation;
+            ws.residual[i] = ws.linearised.states[e as usize].violation;
         }
         let norm_b = dot(&ws.residual, &ws.residual).sqrt();
         if norm_b == 0.0 {
@@ -782,8 +763,8 @@ impl StrainLimits {
             Compact::Multiplier => &ws.multiplier,
         };
         for (i, &e) in ws.active_list.iter().enumerate() {
-            let [a, b] = self.ends[e as usize];
-            let force = ws.edges.states[e as usize].direction * values[i];
+            let [a, b] = self.edges.ends[e as usize];
+            let force = ws.linearised.states[e as usize].direction * values[i];
             ws.gathered[a as usize] += force;
             ws.gathered[b as usize] -= force;
         }
@@ -794,8 +775,8 @@ impl StrainLimits {
         let ws = &mut self.ws;
         let weighted = |v: u32| constraints[v as usize].filter(ws.gathered[v as usize]) / mass[v as usize];
         for (i, &e) in ws.active_list.iter().enumerate() {
-            let [a, b] = self.ends[e as usize];
-            let edge = &ws.edges.states[e as usize];
+            let [a, b] = self.edges.ends[e as usize];
+            let edge = &ws.linearised.states[e as usize];
             ws.product[i] = edge.direction.dot(&(weighted(a) - weighted(b)));
         }
     }
@@ -810,14 +791,8 @@ impl StrainLimits {
             state.x[v] += delta;
             state.v[v] += delta / state.h;
         }
-        let limits = EdgeLimits {
-            ends: &self.ends,
-            rest_length: &self.rest_length,
-            max_length: &self.max_length,
-            near_limit: NEAR_LIMIT,
-        };
         let particles = Particles { x: state.x, constraints, mass: state.mass };
-        ws.edges.update_at(&ws.touched, &self.incidence, limits, particles);
+        ws.linearised.update_at(ws.touched.iter().copied(), &self.edges, particles);
     }
 
     /// One Jacobi clamping sweep into `gathered` (the position change of each
@@ -826,7 +801,7 @@ impl StrainLimits {
     /// mass-weighted move); each particle moves by the mean of what its edges ask.
     fn clamp_sweep(&mut self, constraints: &[Constraint], mass: &[f64]) {
         let ws = &mut self.ws;
-        let (edges, incidence) = (&ws.edges.states, &self.incidence);
+        let (edges, incidence) = (&ws.linearised.states, &self.edges.incidence);
         for &v in &ws.touched {
             let (mut sum, mut count) = (Vector3::zeros(), 0.0);
             for (e, sign) in incidence.of(v as usize) {
@@ -860,7 +835,7 @@ enum Release {
     /// Newton iteration: the exact inequality projection, for the projection
     /// after the implicit solve, whose result the cloth keeps.
     PushingEdges,
-    /// Holds it at its limit while it stays within [`NEAR_LIMIT`] of it (it
+    /// Holds it at its limit while it stays within [`NEAR_LIMIT`](super::limit_edges::NEAR_LIMIT) of it (it
     /// leaves at a linearisation that finds it further), so this lengthens
     /// an edge by at most that strain, and the next step's projection starts
     /// afresh: the cloth still settles. Used between collision passes.
@@ -1062,7 +1037,7 @@ mod tests {
         let start = x.clone();
         let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
         let squared_excess = |limits: &StrainLimits, x: &[Vector3<f64>]| -> f64 {
-            let lengths = limits.lengths(x).zip(&limits.max_length).zip(&limits.rest_length);
+            let lengths = limits.lengths(x).zip(&limits.edges.max_length).zip(&limits.edges.rest_length);
             lengths.map(|((l, max), rest)| ((l - max).max(0.0) / rest).powi(2)).sum()
         };
         let before = squared_excess(&limits, &x);

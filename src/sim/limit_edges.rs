@@ -30,7 +30,7 @@ pub(super) struct Incidence {
 
 impl Incidence {
     /// The incidence of `ends` (each edge's two particles) over `vertex_count` particles.
-    pub(super) fn new(vertex_count: usize, ends: &[[u32; 2]]) -> Self {
+    fn new(vertex_count: usize, ends: &[[u32; 2]]) -> Self {
         let mut count = vec![0u32; vertex_count + 1];
         for [a, b] in ends {
             count[*a as usize + 1] += 1;
@@ -68,17 +68,34 @@ pub(super) struct EdgeState {
     pub diagonal: f64,
 }
 
-/// The constrained edges, as a linearisation reads them.
-#[derive(Clone, Copy)]
-pub(super) struct EdgeLimits<'a> {
+/// Edges within this strain of their limit join the active set before they
+/// exceed it (the multipliers release those that would push): a cloth
+/// hanging on its constraints keeps them from step to step, and the Newton
+/// iterations need not discover them one ring at a time.
+pub const NEAR_LIMIT: f64 = 1e-3;
+
+/// The strain-limited edges: fixed by the mesh, their maximal lengths set
+/// by the fabrics.
+#[derive(Clone, Debug)]
+pub(super) struct EdgeSet {
     /// Each edge's two particles.
-    pub ends: &'a [[u32; 2]],
+    pub ends: Vec<[u32; 2]>,
     /// Each edge's rest length `L`, m.
-    pub rest_length: &'a [f64],
-    /// Each edge's maximal length `(1 + ε) L`, m.
-    pub max_length: &'a [f64],
-    /// Strain below its limit from which a movable edge counts as near it, unitless.
-    pub near_limit: f64,
+    pub rest_length: Vec<f64>,
+    /// Each edge's maximal length `(1 + ε) L`, m (infinite without a limit).
+    pub max_length: Vec<f64>,
+    /// The edges at each particle.
+    pub incidence: Incidence,
+}
+
+impl EdgeSet {
+    /// The edges `ends` among `vertex_count` particles with their rest
+    /// lengths (m), without limits (infinite maximal lengths).
+    pub fn new(vertex_count: usize, ends: Vec<[u32; 2]>, rest_length: Vec<f64>) -> Self {
+        let incidence = Incidence::new(vertex_count, &ends);
+        let max_length = vec![f64::INFINITY; ends.len()];
+        EdgeSet { ends, rest_length, max_length, incidence }
+    }
 }
 
 /// The particles, as a linearisation reads them.
@@ -107,7 +124,9 @@ struct ChunkSummary {
 pub(super) struct LinearisedEdges {
     /// Per edge.
     pub states: Vec<EdgeState>,
-    /// Per edge: movable, and over its limit or within `near_limit` of it.
+    /// Per edge: its ends can move along it (see [`is_movable`]).
+    movable: Vec<bool>,
+    /// Per edge: movable, and over its limit or within [`NEAR_LIMIT`] of it.
     pub near: Vec<bool>,
     /// Per chunk of [`CHUNK`] edges.
     summaries: Vec<ChunkSummary>,
@@ -117,43 +136,45 @@ pub(super) struct LinearisedEdges {
     stale_list: Vec<u32>,
 }
 
+/// One chunk of the per-edge parts of [`LinearisedEdges`].
+struct ChunkMut<'a> {
+    states: &'a mut [EdgeState],
+    movable: &'a mut [bool],
+    near: &'a mut [bool],
+}
+
 impl LinearisedEdges {
     /// Linearises every edge at `particles`, in parallel chunks.
-    pub fn linearise_all(&mut self, edges: EdgeLimits, particles: Particles) {
+    pub fn linearise_all(&mut self, edges: &EdgeSet, particles: Particles) {
         let n = edges.ends.len();
         self.states.resize(n, EdgeState::default());
+        self.movable.resize(n, false);
         self.near.resize(n, false);
         self.summaries.resize(chunk_count(n), ChunkSummary::default());
         self.stale.clear();
         self.stale.resize(chunk_count(n), false);
         self.stale_list.clear();
-        let (states, near, summaries) = (&mut self.states, &mut self.near, &mut self.summaries);
+        let work = |(c, (((states, movable), near), summary)): (usize, (((_, _), _), &mut ChunkSummary))| {
+            *summary = linearise_chunk(c * CHUNK, ChunkMut { states, movable, near }, edges, particles);
+        };
+        let (states, movable, near) = (&mut self.states, &mut self.movable, &mut self.near);
         if n < PARALLEL_FROM {
-            states.chunks_mut(CHUNK).zip(near.chunks_mut(CHUNK)).zip(summaries.iter_mut()).enumerate().for_each(
-                |(c, ((states, near), summary))| {
-                    *summary = linearise_chunk(c * CHUNK, states, near, edges, particles);
-                },
-            );
+            let chunks = states.chunks_mut(CHUNK).zip(movable.chunks_mut(CHUNK)).zip(near.chunks_mut(CHUNK));
+            chunks.zip(self.summaries.iter_mut()).enumerate().for_each(work);
         } else {
-            states
-                .par_chunks_mut(CHUNK)
-                .zip(near.par_chunks_mut(CHUNK))
-                .zip(summaries.par_iter_mut())
-                .enumerate()
-                .for_each(|(c, ((states, near), summary))| {
-                    *summary = linearise_chunk(c * CHUNK, states, near, edges, particles);
-                });
+            let chunks =
+                states.par_chunks_mut(CHUNK).zip(movable.par_chunks_mut(CHUNK)).zip(near.par_chunks_mut(CHUNK));
+            chunks.zip(self.summaries.par_iter_mut()).enumerate().for_each(work);
         }
     }
 
     /// Linearises again, at `particles`, every edge at one of `moved` (the
     /// only particles that moved, or whose constraints changed, since the
     /// last linearisation), and redoes the summaries of their chunks.
-    pub fn update_at(&mut self, moved: &[u32], incidence: &Incidence, edges: EdgeLimits, particles: Particles) {
-        for &v in moved {
-            for (e, _) in incidence.of(v as usize) {
-                self.states[e] = edge_state(particles, edges.ends[e], edges.max_length[e]);
-                self.near[e] = is_near(&self.states[e], e, edges, particles.mass);
+    pub fn update_at(&mut self, moved: impl IntoIterator<Item = u32>, edges: &EdgeSet, particles: Particles) {
+        for v in moved {
+            for (e, _) in edges.incidence.of(v as usize) {
+                (self.states[e], self.movable[e], self.near[e]) = linearise_edge(e, edges, particles);
                 let c = e / CHUNK;
                 if !self.stale[c] {
                     self.stale[c] = true;
@@ -164,7 +185,8 @@ impl LinearisedEdges {
         for &c in &self.stale_list {
             let c = c as usize;
             let range = c * CHUNK..((c + 1) * CHUNK).min(self.states.len());
-            self.summaries[c] = summarise(range.start, &self.states[range], edges, particles.mass);
+            let (states, movable) = (&self.states[range.clone()], &self.movable[range.clone()]);
+            self.summaries[c] = summarise(range.start, states, movable, edges);
             self.stale[c] = false;
         }
         self.stale_list.clear();
@@ -181,40 +203,35 @@ impl LinearisedEdges {
     }
 }
 
-/// Linearises the chunk of edges from `first` into `states` and `near`, and returns its summary.
-fn linearise_chunk(
-    first: usize,
-    states: &mut [EdgeState],
-    near: &mut [bool],
-    edges: EdgeLimits,
-    particles: Particles,
-) -> ChunkSummary {
-    for (k, (state, near)) in states.iter_mut().zip(near.iter_mut()).enumerate() {
-        let e = first + k;
-        *state = edge_state(particles, edges.ends[e], edges.max_length[e]);
-        *near = is_near(state, e, edges, particles.mass);
+/// Linearises the chunk of edges from `first` into `states`, `movable`
+/// and `near`, and returns its summary.
+fn linearise_chunk(first: usize, chunk: ChunkMut, edges: &EdgeSet, particles: Particles) -> ChunkSummary {
+    let ChunkMut { states, movable, near } = chunk;
+    for (k, ((state, movable), near)) in states.iter_mut().zip(movable.iter_mut()).zip(near.iter_mut()).enumerate() {
+        (*state, *movable, *near) = linearise_edge(first + k, edges, particles);
     }
-    summarise(first, states, edges, particles.mass)
+    summarise(first, states, movable, edges)
 }
 
-/// The summary of the chunk of `states` whose first edge is `first`.
-fn summarise(first: usize, states: &[EdgeState], edges: EdgeLimits, mass: &[f64]) -> ChunkSummary {
+/// Edge `e` linearised at `particles`, whether it is movable and whether it is near its limit.
+fn linearise_edge(e: usize, edges: &EdgeSet, particles: Particles) -> (EdgeState, bool, bool) {
+    let state = edge_state(particles, edges.ends[e], edges.max_length[e]);
+    let movable = is_movable(&state, edges.ends[e], particles.mass);
+    let near = movable && state.violation > -NEAR_LIMIT * edges.rest_length[e];
+    (state, movable, near)
+}
+
+/// The summary of the chunk of `states` (and their `movable` flags) whose first edge is `first`.
+fn summarise(first: usize, states: &[EdgeState], movable: &[bool], edges: &EdgeSet) -> ChunkSummary {
     let mut summary = ChunkSummary::default();
-    for (k, state) in states.iter().enumerate() {
-        let e = first + k;
-        let excess = state.violation.max(0.0) / edges.rest_length[e];
+    for (k, (state, &movable)) in states.iter().zip(movable).enumerate() {
+        let excess = if state.violation > 0.0 { state.violation / edges.rest_length[first + k] } else { 0.0 };
         summary.squared_excess += excess * excess;
-        if is_movable(state, edges.ends[e], mass) {
-            let movable_excess = (state.violation / edges.rest_length[e]).max(0.0);
-            summary.largest_movable_excess = summary.largest_movable_excess.max(movable_excess);
+        if movable {
+            summary.largest_movable_excess = summary.largest_movable_excess.max(excess);
         }
     }
     summary
-}
-
-/// Whether edge `e` in `state` is movable and over its limit or within the near margin of it.
-fn is_near(state: &EdgeState, e: usize, edges: EdgeLimits, mass: &[f64]) -> bool {
-    state.violation > -edges.near_limit * edges.rest_length[e] && is_movable(state, edges.ends[e], mass)
 }
 
 /// Edge `[a, b]` with maximal length `max_length` (m) linearised at `particles`.
@@ -238,59 +255,42 @@ fn is_movable(edge: &EdgeState, [a, b]: [u32; 2], mass: &[f64]) -> bool {
 mod tests {
     use super::*;
 
-    /// A strip of squares (two triangles each) along X with a 10 % limit.
-    struct Strip {
-        ends: Vec<[u32; 2]>,
-        rest_length: Vec<f64>,
-        max_length: Vec<f64>,
-        /// Stretched by 12 % along X, with a wave.
-        x: Vec<Vector3<f64>>,
-    }
-
-    /// A strip of `n` squares.
-    fn stretched_strip(n: usize) -> Strip {
+    /// A strip of `n` squares (two triangles each) along X with a 10 %
+    /// limit, and positions stretched by 12 % along X, with a wave.
+    fn stretched_strip(n: usize) -> (EdgeSet, Vec<Vector3<f64>>) {
         let vertex = |i: usize, j: usize| (2 * i + j) as u32;
         let mut ends = Vec::new();
         for i in 0..n {
-            ends.extend([
-                [vertex(i, 0), vertex(i + 1, 0)],
-                [vertex(i, 1), vertex(i + 1, 1)],
-                [vertex(i, 0), vertex(i + 1, 1)],
-            ]);
-            ends.push([vertex(i, 0), vertex(i, 1)]);
+            ends.extend([[vertex(i, 0), vertex(i + 1, 0)], [vertex(i, 1), vertex(i + 1, 1)]]);
+            ends.extend([[vertex(i, 0), vertex(i + 1, 1)], [vertex(i, 0), vertex(i, 1)]]);
         }
         ends.push([vertex(n, 0), vertex(n, 1)]);
-        let rest = |i: usize, j: usize| Vector3::new(i as f64, 0.0, j as f64);
-        let rest_length: Vec<f64> = ends
-            .iter()
-            .map(|[a, b]| (rest(*a as usize / 2, *a as usize % 2) - rest(*b as usize / 2, *b as usize % 2)).norm())
-            .collect();
-        let max_length = rest_length.iter().map(|l| 1.1 * l).collect();
-        let x = (0..2 * (n + 1))
-            .map(|k| Vector3::new(1.12 * (k / 2) as f64, 0.1 * ((k / 2) as f64).sin(), (k % 2) as f64))
-            .collect();
-        Strip { ends, rest_length, max_length, x }
+        let rest = |v: u32| Vector3::new((v / 2) as f64, 0.0, (v % 2) as f64);
+        let rest_length = ends.iter().map(|[a, b]| (rest(*a) - rest(*b)).norm()).collect();
+        let mut edges = EdgeSet::new(2 * (n + 1), ends, rest_length);
+        edges.max_length = edges.rest_length.iter().map(|l| 1.1 * l).collect();
+        let x =
+            (0..2 * (n + 1)).map(|k| Vector3::new(1.12 * (k / 2) as f64, 0.1 * ((k / 2) as f64).sin(), (k % 2) as f64));
+        (edges, x.collect())
     }
 
     #[test]
     fn updating_the_moved_edges_gives_the_bits_of_a_full_linearisation() {
-        let Strip { ends, rest_length, max_length, mut x } = stretched_strip(400);
-        let edges = EdgeLimits { ends: &ends, rest_length: &rest_length, max_length: &max_length, near_limit: 1e-3 };
+        let (edges, mut x) = stretched_strip(400);
         let mass = vec![0.01; x.len()];
         let mut constraints = vec![Constraint::Free; x.len()];
         constraints[0] = Constraint::Fixed;
-        let incidence = Incidence::new(x.len(), &ends);
         let mut updated = LinearisedEdges::default();
-        updated.linearise_all(edges, Particles { x: &x, constraints: &constraints, mass: &mass });
+        updated.linearise_all(&edges, Particles { x: &x, constraints: &constraints, mass: &mass });
         let moved: Vec<u32> = vec![3, 4, 5, 300, 301, 801];
         for &v in &moved {
             x[v as usize] += Vector3::new(-0.07, 0.01 * v as f64, 0.02);
         }
         constraints[4] = Constraint::Normal(Vector3::y());
         let particles = Particles { x: &x, constraints: &constraints, mass: &mass };
-        updated.update_at(&moved, &incidence, edges, particles);
+        updated.update_at(moved, &edges, particles);
         let mut full = LinearisedEdges::default();
-        full.linearise_all(edges, particles);
+        full.linearise_all(&edges, particles);
         for (a, b) in updated.states.iter().zip(&full.states) {
             assert_eq!(a.direction, b.direction);
             assert_eq!((a.violation.to_bits(), a.diagonal.to_bits()), (b.violation.to_bits(), b.diagonal.to_bits()));
@@ -302,16 +302,14 @@ mod tests {
 
     #[test]
     fn the_summaries_are_the_excess_of_each_edge_beyond_its_limit() {
-        let Strip { ends, rest_length, max_length, x } = stretched_strip(3);
-        let edges = EdgeLimits { ends: &ends, rest_length: &rest_length, max_length: &max_length, near_limit: 1e-3 };
+        let (edges, x) = stretched_strip(3);
         let mass = vec![0.01; x.len()];
         let constraints = vec![Constraint::Free; x.len()];
         let mut linearised = LinearisedEdges::default();
-        linearised.linearise_all(edges, Particles { x: &x, constraints: &constraints, mass: &mass });
-        let excess: Vec<f64> = ends
-            .iter()
-            .zip(&max_length)
-            .zip(&rest_length)
+        linearised.linearise_all(&edges, Particles { x: &x, constraints: &constraints, mass: &mass });
+        let excess: Vec<f64> = (edges.ends.iter())
+            .zip(&edges.max_length)
+            .zip(&edges.rest_length)
             .map(|(([a, b], max), rest)| ((x[*a as usize] - x[*b as usize]).norm() - max).max(0.0) / rest)
             .collect();
         let squared: f64 = excess.iter().map(|e| e * e).sum();
