@@ -770,14 +770,19 @@ impl StrainLimits {
         }
     }
 
-    /// `product ← J W gathered`, on the active edges.
+    /// `product ← J W gathered`, on the active edges. Leaves `W gathered`
+    /// in `gathered` (each touched particle weighted once, not once per edge).
     fn multiply(&mut self, constraints: &[Constraint], mass: &[f64]) {
         let ws = &mut self.ws;
-        let weighted = |v: u32| constraints[v as usize].filter(ws.gathered[v as usize]) / mass[v as usize];
+        for &v in &ws.touched {
+            let v = v as usize;
+            ws.gathered[v] = constraints[v].filter(ws.gathered[v]) / mass[v];
+        }
+        let weighted = &ws.gathered;
         for (i, &e) in ws.active_list.iter().enumerate() {
             let [a, b] = self.edges.ends[e as usize];
             let edge = &ws.linearised.states[e as usize];
-            ws.product[i] = edge.direction.dot(&(weighted(a) - weighted(b)));
+            ws.product[i] = edge.direction.dot(&(weighted[a as usize] - weighted[b as usize]));
         }
     }
 
