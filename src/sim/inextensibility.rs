@@ -407,7 +407,15 @@ impl StrainLimits {
 
     /// The chosen method, and clamping after a failed projection when `fallback`.
     fn run(&mut self, state: &mut ProjectedState, fallback: bool) -> ProjectionReport {
-        self.clear_workspace(state.x.len());
+        let ws = &mut self.ws;
+        (ws.factored, ws.factors_needed) = (false, false);
+        ws.active.clear();
+        ws.active.resize(self.edges.ends.len(), false);
+        ws.active_list.clear();
+        ws.is_touched.clear();
+        ws.is_touched.resize(state.x.len(), false);
+        ws.touched.clear();
+        ws.gathered.resize(state.x.len(), Vector3::zeros());
         let mut report = ProjectionReport::default();
         if self.method == StrainLimiting::Projection {
             self.fast_projection(state, &mut report);
@@ -417,20 +425,6 @@ impl StrainLimits {
         }
         report.active_edges = self.ws.active_list.len() as u32;
         report
-    }
-
-    /// Empties the active set and the touched particles, for a projection of
-    /// `particle_count` particles.
-    fn clear_workspace(&mut self, particle_count: usize) {
-        let ws = &mut self.ws;
-        (ws.factored, ws.factors_needed) = (false, false);
-        ws.active.clear();
-        ws.active.resize(self.edges.ends.len(), false);
-        ws.active_list.clear();
-        ws.is_touched.clear();
-        ws.is_touched.resize(particle_count, false);
-        ws.touched.clear();
-        ws.gathered.resize(particle_count, Vector3::zeros());
     }
 
     /// Newton iterations of fast projection until the strain is within
@@ -551,7 +545,6 @@ impl StrainLimits {
                 ws.active[e as usize] = false;
             } else {
                 ws.active_list[kept] = e;
-                ws.multiplier[kept] = ws.multiplier[i];
                 kept += 1;
             }
         }
@@ -627,9 +620,7 @@ impl StrainLimits {
     /// the last Newton iteration rarely converges within
     /// [`KEPT_FACTOR_BUDGET`] where the edges turn far enough to need it),
     /// the kept one after edges were released at the same linearisation.
-    /// Without a factor, Jacobi up to [`CG_ITERATIONS`]. A solve at a new
-    /// linearisation starts from zero; one after releases at the same
-    /// linearisation, or after a failed try, from the multipliers it has.
+    /// Without a factor, Jacobi up to [`CG_ITERATIONS`].
     fn solve_multipliers(
         &mut self,
         constraints: &[Constraint],
@@ -644,23 +635,18 @@ impl StrainLimits {
         } else {
             Some((Preconditioning::Jacobi, self.jacobi_budget(mass.len())))
         };
-        let mut start = match linearisation {
-            Linearisation::New => Start::Zero,
-            Linearisation::Same => Start::Kept,
-        };
         if let Some((preconditioning, budget)) = first {
-            let (iterations, converged) = self.conjugate_gradients(constraints, mass, preconditioning, start, budget);
+            let (iterations, converged) = self.conjugate_gradients(constraints, mass, preconditioning, budget);
             report.cg_iterations += iterations;
             if converged {
                 return;
             }
-            start = Start::Kept;
         }
         self.ws.factors_needed = true;
         self.ws.factored = self.factor(constraints, mass);
         let preconditioning = if self.ws.factored { Preconditioning::Factor } else { Preconditioning::Jacobi };
         report.factorizations += u32::from(self.ws.factored);
-        report.cg_iterations += self.conjugate_gradients(constraints, mass, preconditioning, start, CG_ITERATIONS).0;
+        report.cg_iterations += self.conjugate_gradients(constraints, mass, preconditioning, CG_ITERATIONS).0;
     }
 
     /// Jacobi iterations worth trying on the active edges before a factor:
@@ -711,14 +697,13 @@ impl StrainLimits {
 
     /// Solves `(J W Jᵀ) μ = C` on the active edges by preconditioned CG,
     /// matrix-free and on the calling thread (a sequential loop is the same
-    /// at any thread count), for at most `cap` iterations, from `start`.
-    /// Returns the iterations and whether they reached [`CG_TOLERANCE`].
+    /// at any thread count), for at most `cap` iterations. Returns the
+    /// iterations and whether they reached [`CG_TOLERANCE`].
     fn conjugate_gradients(
         &mut self,
         constraints: &[Constraint],
         mass: &[f64],
         preconditioning: Preconditioning,
-        start: Start,
         cap: u32,
     ) -> (u32, bool) {
         let ws = &mut self.ws;
@@ -726,24 +711,12 @@ impl StrainLimits {
         for v in [&mut ws.multiplier, &mut ws.residual, &mut ws.preconditioned, &mut ws.search, &mut ws.product] {
             v.resize(k, 0.0);
         }
-        let violation = |e: u32| ws.linearised.states[e as usize].violation;
-        let norm_b = ws.active_list.iter().map(|&e| violation(e) * violation(e)).sum::<f64>().sqrt();
-        if norm_b == 0.0 || start == Start::Zero {
-            ws.multiplier.fill(0.0);
-        }
-        if norm_b == 0.0 {
-            return (0, true);
-        }
-        if start == Start::Kept {
-            self.gather_active(Compact::Multiplier);
-            self.multiply(constraints, mass);
-        }
-        let ws = &mut self.ws;
         for (i, &e) in ws.active_list.iter().enumerate() {
-            let kept_product = if start == Start::Kept { ws.product[i] } else { 0.0 };
-            ws.residual[i] = ws.linearised.states[e as usize].violation - kept_product;
+            ws.multiplier[i] = 0.0;
+            ws.residual[i] = ws.linearised.states[e as usize].violation;
         }
-        if dot(&ws.residual, &ws.residual).sqrt() <= CG_TOLERANCE * norm_b {
+        let norm_b = dot(&ws.residual, &ws.residual).sqrt();
+        if norm_b == 0.0 {
             return (0, true);
         }
         self.precondition(preconditioning);
@@ -882,17 +855,6 @@ enum Linearisation {
     New,
     /// A solve after edges left the active set.
     Same,
-}
-
-/// Where a multiplier solve starts.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Start {
-    /// From μ = 0: a new linearisation.
-    Zero,
-    /// From the multipliers of the last solve on the same active edges (with
-    /// those of released edges dropped): after holds or edges were released,
-    /// most of the answer is already there.
-    Kept,
 }
 
 /// Which compact edge vector to gather.
@@ -1173,39 +1135,6 @@ mod tests {
         let work = |r: &ProjectionReport| (r.factorizations, r.cg_iterations);
         let (held_work, exact_work) = (work(&held_report), work(&exact_report));
         assert!(held_work.0 < exact_work.0 && held_work.1 < exact_work.1, "{held_report:?} vs {exact_report:?}");
-    }
-
-    /// A solve after a particle's constraint changed at the same
-    /// linearisation (a released hold) starts from the multipliers kept from
-    /// the last one: it reaches the multipliers a solve from zero reaches, in
-    /// a fraction of the iterations (measured: 1 against 67).
-    #[test]
-    fn a_solve_after_a_release_starts_from_the_kept_multipliers() {
-        let (cloth, x, pinned) = pulled_from_one_side(24);
-        let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
-        let mut held = pinned.clone();
-        let hold = 24 * 12 + 12;
-        held[hold] = Constraint::Normal(Vector3::x());
-        limits.clear_workspace(x.len());
-        limits.linearise_all(&x, &held, &cloth.mass);
-        limits.update_active_set();
-        let solve = |limits: &mut StrainLimits, constraints: &[Constraint], start: Start| {
-            let (iterations, converged) =
-                limits.conjugate_gradients(constraints, &cloth.mass, Preconditioning::Jacobi, start, CG_ITERATIONS);
-            assert!(converged);
-            (iterations, limits.ws.multiplier.clone())
-        };
-        let (first, _) = solve(&mut limits, &held, Start::Zero);
-        let (from_zero_iterations, from_zero) = solve(&mut limits, &pinned, Start::Zero);
-        solve(&mut limits, &held, Start::Zero);
-        let (kept_iterations, kept) = solve(&mut limits, &pinned, Start::Kept);
-        let norm = |m: &[f64]| m.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let apart: Vec<f64> = from_zero.iter().zip(&kept).map(|(a, b)| a - b).collect();
-        assert!(norm(&apart) < 1e-3 * norm(&from_zero), "{} against {}", norm(&apart), norm(&from_zero));
-        assert!(
-            first > 20 && kept_iterations * 3 < from_zero_iterations,
-            "{kept_iterations} against {from_zero_iterations}"
-        );
     }
 
     /// A tube (r = 0.15 m, 1 m, 16 × 16) whose end rings are pinned and
