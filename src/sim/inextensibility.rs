@@ -579,11 +579,12 @@ impl StrainLimits {
         report.excess_strain = self.excess_strain(state.x);
     }
 
-    /// Brings the active set up to the current linearisation: movable
-    /// edges within [`NEAR_LIMIT`](super::limit_edges::NEAR_LIMIT) of their limit join it and stay, unless
-    /// the projection holds instead of releasing ([`Release::Never`]): then
-    /// an edge leaves once it is further from its limit than that. Returns
-    /// the largest strain beyond the limit among movable edges.
+    /// Brings the active set up to the current linearisation: movable edges
+    /// within [`NEAR_LIMIT`](super::limit_edges::NEAR_LIMIT) of their limit
+    /// join it and stay, unless the projection holds instead of releasing
+    /// ([`Release::Never`]): then an edge leaves once it is further from its
+    /// limit than that. Returns the largest strain beyond the limit among
+    /// movable edges.
     fn update_active_set(&mut self) -> f64 {
         let ws = &mut self.ws;
         let holding = self.release == Release::Never;

@@ -132,8 +132,6 @@ pub(super) struct LinearisedEdges {
     summaries: Vec<ChunkSummary>,
     /// Per chunk: an edge of it was linearised again since its summary.
     stale: Vec<bool>,
-    /// The stale chunks.
-    stale_list: Vec<u32>,
 }
 
 /// One chunk of the per-edge parts of [`LinearisedEdges`].
@@ -153,7 +151,6 @@ impl LinearisedEdges {
         self.summaries.resize(chunk_count(n), ChunkSummary::default());
         self.stale.clear();
         self.stale.resize(chunk_count(n), false);
-        self.stale_list.clear();
         let work = |(c, (((states, movable), near), summary)): (usize, (((_, _), _), &mut ChunkSummary))| {
             *summary = linearise_chunk(c * CHUNK, ChunkMut { states, movable, near }, edges, particles);
         };
@@ -175,21 +172,15 @@ impl LinearisedEdges {
         for v in moved {
             for (e, _) in edges.incidence.of(v as usize) {
                 (self.states[e], self.movable[e], self.near[e]) = linearise_edge(e, edges, particles);
-                let c = e / CHUNK;
-                if !self.stale[c] {
-                    self.stale[c] = true;
-                    self.stale_list.push(c as u32);
-                }
+                self.stale[e / CHUNK] = true;
             }
         }
-        for &c in &self.stale_list {
-            let c = c as usize;
+        for (c, stale) in self.stale.iter_mut().enumerate().filter(|(_, stale)| **stale) {
             let range = c * CHUNK..((c + 1) * CHUNK).min(self.states.len());
             let (states, movable) = (&self.states[range.clone()], &self.movable[range.clone()]);
             self.summaries[c] = summarise(range.start, states, movable, edges);
-            self.stale[c] = false;
+            *stale = false;
         }
-        self.stale_list.clear();
     }
 
     /// Largest strain beyond its limit of a movable edge, unitless (0 when all are within).
