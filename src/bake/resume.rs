@@ -299,6 +299,19 @@ mod tests {
         }
     }
 
+    /// The frame records are JSON lines read back on resume: their floats
+    /// must come back to the bit, or a resumed bake's summary differs from an
+    /// uninterrupted one in the last digit. These are strains of a
+    /// `drape_sphere` bake that a fast, not correctly rounded parser reads
+    /// back one unit off.
+    #[test]
+    fn frame_record_numbers_come_back_to_the_bit() {
+        for value in [1.2458784004465429e-14f64, 1.0928757898653885e-14, 1.899169840488546e-14] {
+            let text = serde_json::to_string(&value).unwrap();
+            assert_eq!(serde_json::from_str::<f64>(&text).unwrap().to_bits(), value.to_bits(), "{text}");
+        }
+    }
+
     #[test]
     fn a_checkpoint_round_trips_and_damage_is_named() {
         let bytes = encode(&checkpoint());
