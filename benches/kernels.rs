@@ -77,7 +77,8 @@ fn solver(c: &mut Criterion) {
     let constraints = vec![Constraint::Free; n];
     let typical: Vec<Vector3<f64>> =
         particles.mass.iter().map(|m| Vector3::new(0.0, -9.81 * m * step_s, 0.0)).collect();
-    let mut cholesky = LaggedCholesky::new(&layout.pattern, &cloth.spring_ends).expect("the pattern analyses");
+    let mut cholesky =
+        LaggedCholesky::new(&layout.pattern, &cloth.spring_ends, &cloth.rest_positions).expect("the pattern analyses");
 
     c.bench_function("cholesky: numeric factor (drape_sphere)", |b| {
         b.iter(|| cholesky.refactor(&layout.pattern, black_box(&buffers.matrix), &constraints))

@@ -36,24 +36,27 @@
 //! matrix stays positive definite and at least `S A S + c (I − S)`, so
 //! conjugate gradients converge in a few iterations more, each cheaper.
 //!
-//! The symbolic analysis (approximate minimum degree ordering, supernodes) is
-//! done once per cloth from the kept pattern. Factor and solve run on one
-//! thread, which on two cores is also the fastest here, and keeps the result
+//! The symbolic analysis is done once per cloth from the kept pattern: a
+//! nested-dissection order of the particles ([`super::dissection`]), then
+//! faer's supernodes. Under that order the factor is a balanced tree, whose
+//! independent subtrees [`super::supernodal`] factors and solves in parallel,
 //! bit-identical at any thread count.
 
 use std::sync::Arc;
 
 use faer::Side;
-use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::traits::{ComplexField, RealField};
+use faer::sparse::SymbolicSparseColMatRef;
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
+};
 use nalgebra::{Matrix3, Vector3};
-use rayon::prelude::*;
 
-use super::llt::Llt;
+use super::dissection::{Adjacency, nested_dissection};
 use super::parallel;
 use super::pcg::Constraint;
 use super::sparse::BlockPattern;
+use super::supernodal::{Scalar, SupernodalFactor, SupernodalTree};
 
 /// Iterations a kept (stale) factor gets before it is rebuilt: a failed try
 /// costs less than a third of a factor.
@@ -61,9 +64,6 @@ pub const STALE_BUDGET: u32 = 3;
 
 /// Solves to wait after a stale factor failed before trying one again.
 pub const RETRY_STALE_AFTER: u64 = 8;
-
-/// Scalar entries gathered per parallel task.
-const GATHER_CHUNK: usize = 8192;
 
 /// Iterations per digit of the solver tolerance a fresh single-precision
 /// factor may need before the simulation switches to double-precision
@@ -171,23 +171,29 @@ impl LowerTriangle {
         }
     }
 
-    fn symbolic(&self) -> SymbolicSparseColMatRef<'_, u32> {
-        SymbolicSparseColMatRef::new_checked(self.dimension, self.dimension, &self.column_start, None, &self.row_index)
+    /// The supernodal analysis of the matrix in its own order (analysed in
+    /// its own order, a matrix is read as its upper triangle).
+    fn analysis(&self) -> Result<SymbolicCholesky<u32>, CholeskyError> {
+        let (column_start, row_index) = self.upper();
+        let n = self.dimension;
+        let upper = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        factorize_symbolic_cholesky(upper, Side::Upper, SymmetricOrdering::Identity, params)
+            .map_err(|e| CholeskyError::Analysis(format!("{e:?}")))
     }
 
-    /// The symbolic analysis of the matrix renumbered in AMD order
-    /// (`fill_reducing`), or in its own order as it stands.
-    fn analysis(&self, fill_reducing: bool) -> Result<SymbolicCholesky<u32>, CholeskyError> {
-        let analysed = if fill_reducing {
-            factorize_symbolic_cholesky(self.symbolic(), Side::Lower, SymmetricOrdering::Amd, Default::default())
-        } else {
-            // Analysed in its own order, a matrix is read as its upper triangle.
-            let (column_start, row_index) = self.upper();
-            let n = self.dimension;
-            let upper = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
-            factorize_symbolic_cholesky(upper, Side::Upper, SymmetricOrdering::Identity, Default::default())
-        };
-        analysed.map_err(|e| CholeskyError::Analysis(format!("{e:?}")))
+    /// The supernodal tree of the matrix in its own order.
+    fn tree(&self) -> Result<SupernodalTree, CholeskyError> {
+        match self.analysis()?.raw() {
+            SymbolicCholeskyRaw::Supernodal(supernodal) => {
+                SupernodalTree::new(supernodal, &self.column_start, &self.row_index)
+                    .map_err(|e| CholeskyError::Analysis(e.to_string()))
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => Err(CholeskyError::Analysis("not supernodal".into())),
+        }
     }
 
     /// The pattern of the upper triangle (the mirror of this one), as column
@@ -211,13 +217,12 @@ impl LowerTriangle {
         (column_start, row_index)
     }
 
-    /// The scalar entries of the blocks `filtered` (one per stored slot), in
-    /// the triangle's order, as `T`.
-    fn gather<T: Precision>(&self, filtered: &[Matrix3<f64>], values: &mut [T]) {
-        values.par_iter_mut().zip(self.entries.par_iter()).with_min_len(GATHER_CHUNK).for_each(|(value, entry)| {
-            let (c, r) = (entry.component as usize / 3, entry.component as usize % 3);
-            *value = T::from_f64(filtered[entry.slot as usize][(c, r)]);
-        });
+    /// Scalar entry `e` (in the triangle's order) of the blocks `filtered`
+    /// (one per stored slot), as `T`.
+    fn entry<T: Precision>(&self, filtered: &[Matrix3<f64>], e: usize) -> T {
+        let entry = self.entries[e];
+        let (c, r) = (entry.component as usize / 3, entry.component as usize % 3);
+        T::from_f64(filtered[entry.slot as usize][(c, r)])
     }
 }
 
@@ -250,6 +255,19 @@ fn filtered_block(row: &Constraint, a: &Matrix3<f64>, column: &Constraint, diago
 /// The row of each stored slot of `pattern`.
 fn slot_rows(pattern: &BlockPattern) -> Vec<u32> {
     (0..pattern.rows()).flat_map(|j| pattern.row(j).map(move |_| j as u32)).collect()
+}
+
+/// The scalar unknowns of `particles` particles in the nested-dissection
+/// order of their `couplings` at `positions` (each particle's three axes
+/// together), and the position of each unknown in that order.
+fn dissection_order(particles: usize, couplings: &[[u32; 2]], positions: &[Vector3<f64>]) -> (Vec<u32>, Vec<u32>) {
+    let by_particle = nested_dissection(&Adjacency::new(particles, couplings), positions);
+    let order: Vec<u32> = by_particle.iter().flat_map(|&p| [3 * p, 3 * p + 1, 3 * p + 2]).collect();
+    let mut position = vec![0u32; order.len()];
+    for (k, &unknown) in order.iter().enumerate() {
+        position[unknown as usize] = k as u32;
+    }
+    (order, position)
 }
 
 /// Slots of `pattern` the factor keeps: the diagonal and the blocks of `couplings`.
@@ -360,7 +378,7 @@ fn compensate_dropped(
 }
 
 /// A floating-point type a factor can be kept in.
-trait Precision: RealField + ComplexField<Real = Self> + Copy {
+trait Precision: Scalar {
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
 }
@@ -384,55 +402,36 @@ impl Precision for f64 {
 }
 
 /// The numerical part of a factor in precision `T`, with its work space.
+#[derive(Clone)]
 struct Numeric<T> {
-    values: Vec<T>,
     rhs: Vec<T>,
-    llt: Llt<T>,
+    factor: SupernodalFactor<T>,
 }
 
 impl<T: Precision> Numeric<T> {
-    fn new(symbolic: &SymbolicCholesky<u32>, lower: &LowerTriangle) -> Self {
-        Numeric {
-            values: vec![T::from_f64(0.0); lower.entries.len()],
-            rhs: vec![T::from_f64(0.0); lower.dimension],
-            llt: Llt::new(symbolic),
-        }
+    fn new(tree: &SupernodalTree, lower: &LowerTriangle) -> Self {
+        Numeric { rhs: vec![T::from_f64(0.0); lower.dimension], factor: SupernodalFactor::new(tree) }
     }
 
     /// Factors the filtered blocks.
     fn factor(
         &mut self,
-        symbolic: &SymbolicCholesky<u32>,
+        tree: &SupernodalTree,
         lower: &LowerTriangle,
         filtered: &[Matrix3<f64>],
     ) -> Result<(), CholeskyError> {
-        lower.gather(filtered, &mut self.values);
-        let matrix = SparseColMatRef::new(lower.symbolic(), &self.values);
-        self.llt.factor(symbolic, matrix).map_err(|_| CholeskyError::NotPositiveDefinite)
+        self.factor.factor(tree, |e| lower.entry(filtered, e)).map_err(|_| CholeskyError::NotPositiveDefinite)
     }
 
     /// `z = M⁻¹ r` with the factor.
-    fn apply(
-        &mut self,
-        symbolic: &SymbolicCholesky<u32>,
-        lower: &LowerTriangle,
-        r: &[Vector3<f64>],
-        z: &mut [Vector3<f64>],
-    ) {
+    fn apply(&mut self, tree: &SupernodalTree, lower: &LowerTriangle, r: &[Vector3<f64>], z: &mut [Vector3<f64>]) {
         for (value, &k) in self.rhs.iter_mut().zip(&lower.system) {
             *value = T::from_f64(r[k as usize / 3][k as usize % 3]);
         }
-        self.llt.solve_in_place(symbolic, &mut self.rhs);
+        self.factor.solve_in_place(tree, &mut self.rhs);
         for (value, &k) in self.rhs.iter().zip(&lower.system) {
             z[k as usize / 3][k as usize % 3] = value.to_f64();
         }
-    }
-
-    fn duplicate(&self, symbolic: &SymbolicCholesky<u32>, lower: &LowerTriangle) -> Self {
-        let mut copy = Numeric::new(symbolic, lower);
-        copy.values.clone_from(&self.values);
-        copy.llt = self.llt.duplicate(symbolic);
-        copy
     }
 }
 
@@ -453,7 +452,7 @@ pub struct LaggedCholesky {
     compensation: Vec<f64>,
     /// The filtered blocks of the last factor, one per stored slot.
     filtered: Vec<Matrix3<f64>>,
-    symbolic: Arc<SymbolicCholesky<u32>>,
+    tree: Arc<SupernodalTree>,
     numeric: Factor,
     current: bool,
     /// Solves started so far, and the solve at which a stale factor last failed.
@@ -465,25 +464,24 @@ impl LaggedCholesky {
     /// Analyses the block pattern once (ordering and supernodes), keeping
     /// the diagonal and the blocks of `couplings` (a cloth's springs); the
     /// pattern's other blocks are dropped and compensated on the diagonal.
-    pub fn new(pattern: &BlockPattern, couplings: &[[u32; 2]]) -> Result<Self, CholeskyError> {
+    /// `positions` (m, one per particle) guide the nested dissection.
+    pub fn new(
+        pattern: &BlockPattern,
+        couplings: &[[u32; 2]],
+        positions: &[Vector3<f64>],
+    ) -> Result<Self, CholeskyError> {
         let kept = kept_slots(pattern, couplings);
-        let natural = LowerTriangle::new(pattern, &kept);
-        let lower = match natural.analysis(true)?.perm() {
-            Some(permutation) => {
-                let (order, position) = permutation.arrays();
-                natural.reordered(order, position)
-            }
-            None => natural,
-        };
-        let symbolic = lower.analysis(false)?;
-        let numeric = Factor::Single(Numeric::new(&symbolic, &lower));
+        let (order, position) = dissection_order(pattern.rows(), couplings, positions);
+        let lower = LowerTriangle::new(pattern, &kept).reordered(&order, &position);
+        let tree = lower.tree()?;
+        let numeric = Factor::Single(Numeric::new(&tree, &lower));
         Ok(LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
             slot_rows: slot_rows(pattern).into(),
             dropped: Arc::new(DroppedByParticle::new(pattern.rows(), &dropped_blocks(pattern, &kept))),
             compensation: vec![0.0; pattern.rows()],
             lower,
-            symbolic: Arc::new(symbolic),
+            tree: Arc::new(tree),
             numeric,
             current: false,
             solves: 0,
@@ -518,16 +516,16 @@ impl LaggedCholesky {
         self.current = false;
         filter_blocks(pattern, &self.slot_rows, a, constraints, &mut self.filtered);
         compensate_dropped(pattern, &self.slot_rows, &self.dropped, &mut self.compensation, &mut self.filtered);
-        let (symbolic, lower, filtered) = (&*self.symbolic, &self.lower, &self.filtered);
+        let (tree, lower, filtered) = (&*self.tree, &self.lower, &self.filtered);
         if let Factor::Single(single) = &mut self.numeric {
-            if single.factor(symbolic, lower, filtered).is_ok() {
+            if single.factor(tree, lower, filtered).is_ok() {
                 self.current = true;
                 return Ok(());
             }
             self.use_double_precision();
         }
         if let Factor::Double(double) = &mut self.numeric {
-            double.factor(&self.symbolic, &self.lower, &self.filtered)?;
+            double.factor(&self.tree, &self.lower, &self.filtered)?;
         }
         self.current = true;
         Ok(())
@@ -550,14 +548,14 @@ impl LaggedCholesky {
     }
 
     fn use_double_precision(&mut self) {
-        self.numeric = Factor::Double(Numeric::new(&self.symbolic, &self.lower));
+        self.numeric = Factor::Double(Numeric::new(&self.tree, &self.lower));
     }
 
     /// `z = M⁻¹ r` with the current factor (unfiltered: the caller filters).
     pub fn apply(&mut self, r: &[Vector3<f64>], z: &mut [Vector3<f64>]) {
         match &mut self.numeric {
-            Factor::Single(single) => single.apply(&self.symbolic, &self.lower, r, z),
-            Factor::Double(double) => double.apply(&self.symbolic, &self.lower, r, z),
+            Factor::Single(single) => single.apply(&self.tree, &self.lower, r, z),
+            Factor::Double(double) => double.apply(&self.tree, &self.lower, r, z),
         }
     }
 }
@@ -609,14 +607,14 @@ impl LaggedCholesky {
         if state.double_precision {
             self.use_double_precision();
         } else {
-            self.numeric = Factor::Single(Numeric::new(&self.symbolic, &self.lower));
+            self.numeric = Factor::Single(Numeric::new(&self.tree, &self.lower));
         }
         (self.current, self.solves, self.stale_failed_at) = (state.current, state.solves, state.stale_failed_at);
         if self.current {
-            let (symbolic, lower, filtered) = (&*self.symbolic, &self.lower, &self.filtered);
+            let (tree, lower, filtered) = (&*self.tree, &self.lower, &self.filtered);
             match &mut self.numeric {
-                Factor::Single(single) => single.factor(symbolic, lower, filtered)?,
-                Factor::Double(double) => double.factor(symbolic, lower, filtered)?,
+                Factor::Single(single) => single.factor(tree, lower, filtered)?,
+                Factor::Double(double) => double.factor(tree, lower, filtered)?,
             }
         }
         Ok(())
@@ -625,17 +623,16 @@ impl LaggedCholesky {
 
 impl Clone for LaggedCholesky {
     fn clone(&self) -> Self {
-        let (symbolic, lower) = (&*self.symbolic, &self.lower);
         LaggedCholesky {
-            lower: lower.clone(),
+            lower: self.lower.clone(),
             slot_rows: Arc::clone(&self.slot_rows),
             dropped: Arc::clone(&self.dropped),
             compensation: self.compensation.clone(),
             filtered: self.filtered.clone(),
-            symbolic: Arc::clone(&self.symbolic),
+            tree: Arc::clone(&self.tree),
             numeric: match &self.numeric {
-                Factor::Single(single) => Factor::Single(single.duplicate(symbolic, lower)),
-                Factor::Double(double) => Factor::Double(double.duplicate(symbolic, lower)),
+                Factor::Single(single) => Factor::Single(single.clone()),
+                Factor::Double(double) => Factor::Double(double.clone()),
             },
             current: self.current,
             solves: self.solves,
@@ -648,7 +645,7 @@ impl std::fmt::Debug for LaggedCholesky {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("LaggedCholesky")
             .field("dimension", &self.lower.dimension)
-            .field("factor_values", &self.symbolic.len_val())
+            .field("factor_values", &self.tree.value_count())
             .field("single_precision", &self.is_single_precision())
             .field("current", &self.current)
             .finish()
@@ -662,6 +659,13 @@ mod tests {
 
     /// The couplings of the ring of `n` particles to their neighbours at
     /// ±1 and ±2.
+    fn ring_positions(n: usize) -> Vec<Vector3<f64>> {
+        (0..n)
+            .map(|i| i as f64 / n as f64 * std::f64::consts::TAU)
+            .map(|a| Vector3::new(a.cos(), 0.0, a.sin()))
+            .collect()
+    }
+
     fn ring_pairs(n: usize) -> Vec<[u32; 2]> {
         (0..n as u32).flat_map(|i| [[i, (i + 1) % n as u32], [i, (i + 2) % n as u32]]).collect()
     }
@@ -712,7 +716,7 @@ mod tests {
         let mut constraints = vec![Constraint::Free; 12];
         constraints[3] = Constraint::Fixed;
         constraints[8] = Constraint::Normal(Vector3::new(1.0, 2.0, 2.0) / 3.0);
-        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(12)).unwrap();
+        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(12), &ring_positions(12)).unwrap();
         assert!(!cholesky.begin_solve(), "no factor yet");
         cholesky.refactor(&pattern, &a, &constraints).unwrap();
 
@@ -747,7 +751,7 @@ mod tests {
         let n = 12;
         let (pattern, a) = ring(n, 11);
         let neighbours: Vec<[u32; 2]> = (0..n as u32).map(|i| [i, (i + 1) % n as u32]).collect();
-        let mut cholesky = LaggedCholesky::new(&pattern, &neighbours).unwrap();
+        let mut cholesky = LaggedCholesky::new(&pattern, &neighbours, &ring_positions(n)).unwrap();
         cholesky.use_double_precision();
         let free = vec![Constraint::Free; n];
         cholesky.refactor(&pattern, &a, &free).unwrap();
@@ -769,12 +773,13 @@ mod tests {
         assert!(excess.max() > 1e-3 * scale, "the ±2 couplings were dropped");
     }
 
-    /// The factor is analysed in the fill-reducing order it was renumbered
-    /// to, so it has exactly the fill of that order (less than the grid's own
-    /// row-by-row order has).
+    /// The factor is analysed in nested-dissection order: on a grid it fills
+    /// in less than the grid's own row-by-row order, and its tree is
+    /// balanced: most of the work lies off the longest chain of supernodes,
+    /// in subtrees that factor in parallel.
     #[test]
-    fn the_renumbered_factor_has_the_fill_of_the_fill_reducing_order() {
-        let side = 16u32;
+    fn the_dissection_order_fills_in_little_and_balances_the_tree() {
+        let side = 24u32;
         let at = |x: u32, y: u32| y * side + x;
         let mut pairs = Vec::new();
         for y in 0..side {
@@ -788,13 +793,16 @@ mod tests {
                 }
             }
         }
+        let positions: Vec<_> =
+            (0..side * side).map(|k| Vector3::new((k % side) as f64, 0.0, (k / side) as f64) * 0.01).collect();
         let pattern = BlockPattern::new((side * side) as usize, pairs.iter().copied());
         let natural = LowerTriangle::new(&pattern, &kept_slots(&pattern, &pairs));
-        let fill = |fill_reducing| natural.analysis(fill_reducing).map(|s| s.len_val());
-        let (amd, unordered) = (fill(true).unwrap(), fill(false).unwrap());
-        let cholesky = LaggedCholesky::new(&pattern, &pairs).unwrap();
-        assert_eq!(cholesky.symbolic.len_val(), amd);
-        assert!(amd < unordered, "AMD fills {amd} entries, the grid order {unordered}");
+        let unordered = natural.tree().unwrap().value_count();
+        let cholesky = LaggedCholesky::new(&pattern, &pairs, &positions).unwrap();
+        let dissected = cholesky.tree.value_count();
+        assert!(dissected < unordered, "dissection fills {dissected} entries, the grid order {unordered}");
+        let (longest_chain, total) = cholesky.tree.critical_path_flops();
+        assert!(longest_chain < 0.4 * total, "{longest_chain:e} of {total:e} flops on one chain");
     }
 
     #[test]
@@ -825,7 +833,7 @@ mod tests {
     #[test]
     fn failed_stale_factors_are_retried_later() {
         let (pattern, a) = ring(6, 5);
-        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(6)).unwrap();
+        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(6), &ring_positions(6)).unwrap();
         cholesky.begin_solve();
         cholesky.refactor(&pattern, &a, &[Constraint::Free; 6]).unwrap();
         assert!(cholesky.begin_solve(), "a kept factor is tried");
@@ -841,7 +849,7 @@ mod tests {
     fn indefinite_matrix_is_rejected() {
         let (pattern, mut a) = ring(6, 3);
         a[pattern.diagonal(2)] = -Matrix3::identity();
-        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(6)).unwrap();
+        let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(6), &ring_positions(6)).unwrap();
         let free = vec![Constraint::Free; 6];
         assert_eq!(cholesky.refactor(&pattern, &a, &free), Err(CholeskyError::NotPositiveDefinite));
         assert!(!cholesky.begin_solve(), "no factor is left to try");

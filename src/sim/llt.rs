@@ -1,8 +1,8 @@
 //! The numbers of a sparse `L Lᵀ` factor (faer) and its work space, factored
-//! and solved on the calling thread: what the spring system's preconditioner
-//! ([`super::cholesky`]) and the strain limits' multiplier system
-//! ([`super::edge_system`]) share. One thread is also the fastest here for
-//! these sizes, and keeps results bit-identical at any thread count.
+//! and solved on the calling thread: the strain limits' multiplier system
+//! ([`super::edge_system`]), a few hundred edges, for which one thread is the
+//! fastest, and bit-identical at any thread count. (The springs' system, far
+//! larger, is factored by subtrees in parallel: [`super::supernodal`].)
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::SparseColMatRef;

@@ -12,6 +12,7 @@ pub mod cloth;
 pub mod colliders;
 pub mod collision;
 pub mod contact;
+pub mod dissection;
 pub mod edge_system;
 pub mod fabric;
 pub mod forces;
@@ -26,6 +27,7 @@ pub mod pcg;
 pub mod snapshot;
 pub mod sparse;
 pub mod step;
+pub mod supernodal;
 pub mod tuning;
 pub mod vertex_animation;
 

@@ -103,12 +103,20 @@ pub enum Preconditioner {
 impl Preconditioner {
     /// The preconditioner of `kind` for matrices on `pattern`, whose springs
     /// join `edges` (a Cholesky factor keeps only their blocks and the
-    /// diagonal; multigrid aggregates along them).
-    pub fn new(kind: PreconditionerKind, pattern: &BlockPattern, edges: &[[u32; 2]]) -> Result<Self, CholeskyError> {
+    /// diagonal, and orders the particles by their `positions`, m; multigrid
+    /// aggregates along the springs).
+    pub fn new(
+        kind: PreconditionerKind,
+        pattern: &BlockPattern,
+        edges: &[[u32; 2]],
+        positions: &[Vector3<f64>],
+    ) -> Result<Self, CholeskyError> {
         Ok(match kind {
             PreconditionerKind::BlockJacobi => Preconditioner::BlockJacobi,
             PreconditionerKind::Multigrid => Preconditioner::Multigrid(Box::new(Multigrid::new(pattern, edges))),
-            PreconditionerKind::Cholesky => Preconditioner::Cholesky(Box::new(LaggedCholesky::new(pattern, edges)?)),
+            PreconditionerKind::Cholesky => {
+                Preconditioner::Cholesky(Box::new(LaggedCholesky::new(pattern, edges, positions)?))
+            }
         })
     }
 
@@ -345,6 +353,14 @@ mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
+    /// The positions of a ring of `n` particles, m.
+    fn ring_positions(n: usize) -> Vec<Vector3<f64>> {
+        (0..n)
+            .map(|i| i as f64 / n as f64 * std::f64::consts::TAU)
+            .map(|a| Vector3::new(a.cos(), 0.0, a.sin()))
+            .collect()
+    }
+
     /// The couplings of a ring of `n` particles to ±1 and ±2.
     fn ring_pairs(n: usize) -> Vec<[u32; 2]> {
         (0..n as u32).flat_map(|i| [[i, (i + 1) % n as u32], [i, (i + 2) % n as u32]]).collect()
@@ -497,7 +513,8 @@ mod tests {
         let settings =
             PcgSettings { tolerance: 1e-8, max_iterations: 1000, preconditioner: PreconditionerKind::Cholesky };
         let free = vec![Constraint::Free; n];
-        let mut preconditioner = Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n)).unwrap();
+        let mut preconditioner =
+            Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n), &ring_positions(n)).unwrap();
         let mut run = |a: &[Matrix3<f64>]| {
             let mut x = vec![Vector3::zeros(); n];
             let system =
@@ -540,7 +557,8 @@ mod tests {
         let settings =
             PcgSettings { tolerance: 1e-10, max_iterations: 1000, preconditioner: PreconditionerKind::Cholesky };
         let free = vec![Constraint::Free; n];
-        let mut preconditioner = Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n)).unwrap();
+        let mut preconditioner =
+            Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n), &ring_positions(n)).unwrap();
         let mut x = vec![Vector3::zeros(); n];
         let system =
             FilteredSystem { pattern: &pattern, a: &a, b: &b, typical: &b, constraints: &free, positions: &[] };

@@ -506,7 +506,12 @@ impl Simulator {
             .filter(|&s| cloth.spring_kind[s as usize] == SpringKind::Stretch)
             .collect();
         let layout = SystemLayout::new(&cloth);
-        let preconditioner = Preconditioner::new(settings.solver.preconditioner, &layout.pattern, &cloth.spring_ends)?;
+        let preconditioner = Preconditioner::new(
+            settings.solver.preconditioner,
+            &layout.pattern,
+            &cloth.spring_ends,
+            &cloth.rest_positions,
+        )?;
         let collision = collision_pipeline(&cloth, &pins, &colliders, &meshes, &settings);
         let strain_limits = StrainLimits::new(&cloth, settings.strain_limiting);
         let glued = pins.iter().any(|p| matches!(p.target, PinTarget::OnMesh { .. }));
