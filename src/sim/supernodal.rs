@@ -60,13 +60,16 @@ pub struct NotPositiveDefinite;
 
 /// A descendant's product into a supernode: rows `first_row..` of the
 /// descendant's pattern, of which the first `columns` are the supernode's
-/// columns; their places in the supernode are `local[local_start..]`.
+/// columns; their places in the supernode are `local[local_start..]`, in
+/// `run_count` runs of consecutive places, `runs[run_start..]`.
 #[derive(Clone, Copy, Debug)]
 struct Update {
     source: u32,
     first_row: u32,
     columns: u32,
     local_start: u32,
+    run_start: u32,
+    run_count: u32,
 }
 
 /// The structure of a supernodal factor and its task tree.
@@ -94,6 +97,10 @@ pub struct SupernodalTree {
     update_start: Vec<usize>,
     updates: Vec<Update>,
     local: Vec<u32>,
+    /// Runs of consecutive places in `local`: first row of the update (from
+    /// its `first_row`) and length. Subtracting a product run by run is a
+    /// vector operation, place by place it is not.
+    runs: Vec<[u32; 2]>,
     /// For each stored entry of the matrix's lower triangle (compressed
     /// columns, in the order analysed), its place among the factor's values;
     /// the entries of supernode `s`'s columns are `entry_start[s]..entry_start[s + 1]`.
@@ -138,6 +145,7 @@ impl SupernodalTree {
             update_start: Vec::new(),
             updates: Vec::new(),
             local: Vec::new(),
+            runs: Vec::new(),
             entry_place: Vec::new(),
             entry_start: Vec::new(),
         };
@@ -254,8 +262,14 @@ impl SupernodalTree {
                     }
                     local.push((self.columns(s) + t) as u32);
                 }
-                let update =
-                    Update { source: d as u32, first_row: k as u32, columns: (end - k) as u32, local_start: 0 };
+                let update = Update {
+                    source: d as u32,
+                    first_row: k as u32,
+                    columns: (end - k) as u32,
+                    local_start: 0,
+                    run_start: 0,
+                    run_count: 0,
+                };
                 into[s].push((update, local));
                 k = end;
             }
@@ -264,6 +278,15 @@ impl SupernodalTree {
         for list in into {
             for (mut update, local) in list {
                 update.local_start = self.local.len() as u32;
+                update.run_start = self.runs.len() as u32;
+                let mut start = 0;
+                for i in 1..=local.len() {
+                    if i == local.len() || local[i] != local[i - 1] + 1 {
+                        self.runs.push([start as u32, (i - start) as u32]);
+                        start = i;
+                    }
+                }
+                update.run_count = self.runs.len() as u32 - update.run_start;
                 self.local.extend(local);
                 self.updates.push(update);
             }
@@ -474,10 +497,17 @@ fn factor_supernode<T: Scalar>(
             Par::Seq,
         );
         let local = &tree.local[update.local_start as usize..][..m];
+        let runs = &tree.runs[update.run_start as usize..][..update.run_count as usize];
         for (j, &column) in local[..c].iter().enumerate() {
             let target = &mut values[column as usize * rows..][..rows];
-            for (&row, &p) in local[j..].iter().zip(&product[j * m + j..(j + 1) * m]) {
-                target[row as usize] -= p;
+            let product = &product[j * m..(j + 1) * m];
+            // The lower triangle: rows from j on.
+            for &[start, length] in runs.iter().filter(|&&[start, length]| (start + length) as usize > j) {
+                let (from, to) = ((start as usize).max(j), (start + length) as usize);
+                let row = local[from] as usize;
+                for (t, &p) in target[row..row + to - from].iter_mut().zip(&product[from..to]) {
+                    *t -= p;
+                }
             }
         }
     }
