@@ -28,6 +28,8 @@ pub mod snapshot;
 pub mod sparse;
 pub mod step;
 pub mod supernodal;
+#[cfg(test)]
+pub(crate) mod test_grid;
 pub mod tuning;
 pub mod vertex_animation;
 

@@ -577,29 +577,7 @@ fn residual_into<const D: usize>(
 mod tests {
     use super::*;
     use crate::sim::pcg::{FilteredSystem, PcgSettings, PcgWorkspace, PreconditionerKind, Preconditioning, solve};
-
-    /// A grid's spring edges (axis and both diagonals), `n × n` nodes, and the
-    /// nodes' positions (unit spacing in XZ).
-    fn grid(n: usize) -> (Vec<[u32; 2]>, Vec<Vector3<f64>>) {
-        let id = |r: usize, c: usize| (r * n + c) as u32;
-        let mut edges = Vec::new();
-        for r in 0..n {
-            for c in 0..n {
-                if c + 1 < n {
-                    edges.push([id(r, c), id(r, c + 1)]);
-                }
-                if r + 1 < n {
-                    edges.push([id(r, c), id(r + 1, c)]);
-                }
-                if r + 1 < n && c + 1 < n {
-                    edges.push([id(r, c), id(r + 1, c + 1)]);
-                    edges.push([id(r, c + 1), id(r + 1, c)]);
-                }
-            }
-        }
-        let points = (0..n * n).map(|i| Vector3::new((i % n) as f64, 0.0, (i / n) as f64)).collect();
-        (edges, points)
-    }
+    use crate::sim::test_grid::quad_grid as grid;
 
     /// `I + Σ_springs B` with each spring's block `B` from `block(direction, is_diagonal)`.
     fn system(

@@ -742,21 +742,7 @@ mod tests {
     /// diagonals), three unknowns each, numbered in nested-dissection order:
     /// `mass I + Σ k (eᵢ − eⱼ)(eᵢ − eⱼ)ᵀ ⊗ u uᵀ` with random spring axes `u`.
     fn grid_system(n: usize, mass: f64) -> System {
-        let id = |i: usize, j: usize| (i * n + j) as u32;
-        let mut couplings = Vec::new();
-        for i in 0..n {
-            for j in 0..n {
-                for (di, dj) in [(0, 1), (1, 0), (1, 1)] {
-                    if i + di < n && j + dj < n {
-                        couplings.push([id(i, j), id(i + di, j + dj)]);
-                    }
-                }
-                if i + 1 < n && j > 0 {
-                    couplings.push([id(i, j), id(i + 1, j - 1)]);
-                }
-            }
-        }
-        let positions: Vec<_> = (0..n * n).map(|k| Vector3::new((k / n) as f64, (k % n) as f64, 0.0)).collect();
+        let (couplings, positions) = crate::sim::test_grid::quad_grid(n);
         let order = nested_dissection(&Adjacency::new(n * n, &couplings), &positions);
         let mut position = vec![0usize; n * n];
         for (k, &p) in order.iter().enumerate() {
