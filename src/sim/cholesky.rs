@@ -436,12 +436,14 @@ impl<T: Precision> Numeric<T> {
 }
 
 /// The numerical factor in the precision the system allows.
+#[derive(Clone)]
 enum Factor {
     Single(Numeric<f32>),
     Double(Numeric<f64>),
 }
 
 /// A Cholesky factor of the filtered system, kept across steps.
+#[derive(Clone)]
 pub struct LaggedCholesky {
     lower: LowerTriangle,
     /// The row of each stored slot of the pattern.
@@ -621,26 +623,6 @@ impl LaggedCholesky {
     }
 }
 
-impl Clone for LaggedCholesky {
-    fn clone(&self) -> Self {
-        LaggedCholesky {
-            lower: self.lower.clone(),
-            slot_rows: Arc::clone(&self.slot_rows),
-            dropped: Arc::clone(&self.dropped),
-            compensation: self.compensation.clone(),
-            filtered: self.filtered.clone(),
-            tree: Arc::clone(&self.tree),
-            numeric: match &self.numeric {
-                Factor::Single(single) => Factor::Single(single.clone()),
-                Factor::Double(double) => Factor::Double(double.clone()),
-            },
-            current: self.current,
-            solves: self.solves,
-            stale_failed_at: self.stale_failed_at,
-        }
-    }
-}
-
 impl std::fmt::Debug for LaggedCholesky {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("LaggedCholesky")
@@ -657,15 +639,10 @@ mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
+    use crate::sim::test_grid::ring_positions;
+
     /// The couplings of the ring of `n` particles to their neighbours at
     /// ±1 and ±2.
-    fn ring_positions(n: usize) -> Vec<Vector3<f64>> {
-        (0..n)
-            .map(|i| i as f64 / n as f64 * std::f64::consts::TAU)
-            .map(|a| Vector3::new(a.cos(), 0.0, a.sin()))
-            .collect()
-    }
-
     fn ring_pairs(n: usize) -> Vec<[u32; 2]> {
         (0..n as u32).flat_map(|i| [[i, (i + 1) % n as u32], [i, (i + 2) % n as u32]]).collect()
     }

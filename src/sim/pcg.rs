@@ -353,13 +353,7 @@ mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
-    /// The positions of a ring of `n` particles, m.
-    fn ring_positions(n: usize) -> Vec<Vector3<f64>> {
-        (0..n)
-            .map(|i| i as f64 / n as f64 * std::f64::consts::TAU)
-            .map(|a| Vector3::new(a.cos(), 0.0, a.sin()))
-            .collect()
-    }
+    use crate::sim::test_grid::ring_positions;
 
     /// The couplings of a ring of `n` particles to ±1 and ±2.
     fn ring_pairs(n: usize) -> Vec<[u32; 2]> {

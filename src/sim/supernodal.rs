@@ -43,15 +43,9 @@ const PARALLEL_FACTOR_FLOPS: f64 = 4e5;
 const PARALLEL_SOLVE_VALUES: usize = 40_000;
 
 /// A floating-point type a factor is kept in (`f32` or `f64`).
-pub trait Scalar:
-    RealField + ComplexField<Real = Self> + Copy + Send + Sync + std::ops::SubAssign + std::ops::Mul<Output = Self>
-{
-}
+pub trait Scalar: RealField + ComplexField<Real = Self> + Copy + Send + Sync + std::ops::SubAssign {}
 
-impl<T> Scalar for T where
-    T: RealField + ComplexField<Real = T> + Copy + Send + Sync + std::ops::SubAssign + std::ops::Mul<Output = T>
-{
-}
+impl<T> Scalar for T where T: RealField + ComplexField<Real = T> + Copy + Send + Sync + std::ops::SubAssign {}
 
 /// The matrix given to [`SupernodalFactor::factor`] is not numerically
 /// positive definite.
@@ -97,8 +91,8 @@ pub struct SupernodalTree {
     update_start: Vec<usize>,
     updates: Vec<Update>,
     local: Vec<u32>,
-    /// Runs of consecutive places in `local`: first row of the update (from
-    /// its `first_row`) and length. Subtracting a product run by run is a
+    /// Runs of consecutive places in `local`: an update's first place of the
+    /// run (counted from its `local_start`) and the run's length. Subtracting a product run by run is a
     /// vector operation, place by place it is not.
     runs: Vec<[u32; 2]>,
     /// For each stored entry of the matrix's lower triangle (compressed
@@ -170,6 +164,11 @@ impl SupernodalTree {
         &self.pattern[self.pattern_start[s]..self.pattern_start[s + 1]]
     }
 
+    /// The supernode holding `column`.
+    fn supernode_of(&self, column: u32) -> usize {
+        self.begin.partition_point(|&b| b <= column as usize) - 1
+    }
+
     /// Rows (diagonal block and below) of supernode `s`.
     fn rows(&self, s: usize) -> usize {
         self.columns(s) + self.pattern_of(s).len()
@@ -187,7 +186,8 @@ impl SupernodalTree {
     /// The floating-point operations of a factor along the tree's costliest
     /// chain of supernodes from a leaf to a root (what no number of cores
     /// can run at once), and in all.
-    pub fn critical_path_flops(&self) -> (f64, f64) {
+    #[cfg(test)]
+    pub(crate) fn critical_path_flops(&self) -> (f64, f64) {
         let mut chain = vec![0.0f64; self.count()];
         for s in 0..self.count() {
             let own = supernode_flops(self.columns(s), self.pattern_of(s).len());
@@ -200,9 +200,8 @@ impl SupernodalTree {
     /// Parents, children, subtree ranges and work; checks every subtree is
     /// contiguous.
     fn link_subtrees(&mut self, count: usize) -> Result<(), TreeError> {
-        let supernode_of = |column: u32| self.begin.partition_point(|&b| b <= column as usize) - 1;
         let parent: Vec<Option<usize>> =
-            (0..count).map(|s| self.pattern_of(s).first().map(|&r| supernode_of(r))).collect();
+            (0..count).map(|s| self.pattern_of(s).first().map(|&r| self.supernode_of(r))).collect();
         let mut first: Vec<usize> = (0..count).collect();
         let mut size = vec![1usize; count];
         let mut flops: Vec<f64> =
@@ -243,13 +242,12 @@ impl SupernodalTree {
 
     /// Every descendant's update into each supernode, and where its rows land.
     fn find_updates(&mut self, count: usize) {
-        let supernode_of = |column: u32| self.begin.partition_point(|&b| b <= column as usize) - 1;
         let mut into: Vec<Vec<(Update, Vec<u32>)>> = vec![Vec::new(); count];
         for d in 0..count {
             let rows = self.pattern_of(d);
             let mut k = 0;
             while k < rows.len() {
-                let s = supernode_of(rows[k]);
+                let s = self.supernode_of(rows[k]);
                 let end = rows[k..].partition_point(|&r| (r as usize) < self.begin[s + 1]) + k;
                 let target = self.pattern_of(s);
                 let mut local = Vec::with_capacity(rows.len() - k);

@@ -1,4 +1,4 @@
-//! A square cloth for tests: the particles and springs of an `n × n` quad grid.
+//! Cloths for tests: an `n × n` quad grid, a ring of particles.
 
 use nalgebra::Vector3;
 
@@ -24,4 +24,9 @@ pub fn quad_grid(n: usize) -> (Vec<[u32; 2]>, Vec<Vector3<f64>>) {
     }
     let points = (0..n * n).map(|i| Vector3::new((i % n) as f64, 0.0, (i / n) as f64)).collect();
     (edges, points)
+}
+
+/// The positions of a ring of `n` particles of radius 1 m in XZ.
+pub fn ring_positions(n: usize) -> Vec<Vector3<f64>> {
+    (0..n).map(|i| i as f64 / n as f64 * std::f64::consts::TAU).map(|a| Vector3::new(a.cos(), 0.0, a.sin())).collect()
 }
