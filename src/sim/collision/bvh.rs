@@ -10,6 +10,8 @@ use parry3d::bounding_volume::Aabb;
 use parry3d::math::Vector;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhNode, BvhWorkspace};
 
+use super::pair_sort::PairSorter;
+
 /// Steps between incremental re-optimisations of the tree (refitting alone
 /// lets its quality decay as the cloth deforms).
 const OPTIMIZE_EVERY: u32 = 16;
@@ -85,6 +87,7 @@ impl Box3 {
 pub struct SweptBvh {
     bvh: Bvh,
     workspace: BvhWorkspace,
+    sorter: PairSorter,
     steps: u32,
 }
 
@@ -101,6 +104,7 @@ impl SweptBvh {
         SweptBvh {
             bvh: Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves),
             workspace: BvhWorkspace::default(),
+            sorter: PairSorter::default(),
             steps: 0,
         }
     }
@@ -136,7 +140,7 @@ impl SweptBvh {
     pub fn self_pairs(&mut self, out: &mut Vec<(u32, u32)>) {
         out.clear();
         self.bvh.traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| out.push((a.min(b), a.max(b))));
-        out.sort_unstable();
+        self.sorter.sort(out);
     }
 
     /// Every pair `(leaf of self, leaf of other)` whose boxes overlap, in

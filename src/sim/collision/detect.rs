@@ -12,6 +12,7 @@ use super::bvh::{Box3, SweptBvh};
 use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_within};
 use super::features::Ownership;
 use super::obstacles::Obstacles;
+use super::pair_sort::PairSorter;
 use super::response::{Contact, ContactKind};
 use super::{CollisionPipeline, CollisionReport, ParticleCollision, Workspace, speculate};
 use crate::sim::contact::StepWindow;
@@ -207,7 +208,7 @@ impl CollisionPipeline {
                     &ws.triangle_box,
                     &ws.moved_triangle,
                     &ws.moved_list,
-                    &mut ws.query_chunks,
+                    (&mut ws.query_chunks, &mut ws.pair_sorter),
                     &mut ws.pairs,
                 ),
                 false if speculated => speculate::confirmed_self_pairs(bvh, ws),
@@ -318,7 +319,7 @@ fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved:
     }
     let (cloth_box, obstacle_box) = (&ws.triangle_box, &ws.obstacle_box);
     ws.mesh_pairs.retain(|&(t, h)| obstacle_box[t as usize].overlaps(&cloth_box[h as usize]));
-    ws.mesh_pairs.sort_unstable();
+    ws.pair_sorter.sort(&mut ws.mesh_pairs);
     ws.mesh_pairs.dedup();
 }
 
@@ -378,13 +379,14 @@ fn mean(vectors: impl ExactSizeIterator<Item = Vector3<f64>>) -> Vector3<f64> {
 
 /// The overlapping pairs `(low, high)` of cloth triangles with at least one
 /// `moved`, sorted: what [`SweptBvh::self_pairs`] gives, restricted to them.
-/// `moved_list` holds the moved triangles in increasing order.
+/// `moved_list` holds the moved triangles in increasing order; the queries'
+/// buffers and the sorter's scratch are kept in `scratch`.
 pub(super) fn moved_pairs(
     bvh: &SweptBvh,
     boxes: &[Box3],
     moved: &[bool],
     moved_list: &[u32],
-    chunks: &mut Vec<QueryChunk>,
+    (chunks, sorter): (&mut Vec<QueryChunk>, &mut PairSorter),
     out: &mut Vec<(u32, u32)>,
 ) {
     parallel_queries(moved_list, chunks, out, |a, hits, pairs| {
@@ -392,7 +394,7 @@ pub(super) fn moved_pairs(
         let wanted = |h: u32| h != a && (!moved[h as usize] || a < h) && boxes[h as usize].overlaps(&boxes[a as usize]);
         pairs.extend(hits.iter().filter(|&&h| wanted(h)).map(|&h| (a.min(h), a.max(h))));
     });
-    out.sort_unstable();
+    sorter.sort(out);
 }
 
 /// Moved triangles per parallel task of a broad-phase query.

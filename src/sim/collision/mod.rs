@@ -36,6 +36,7 @@ mod detect;
 pub mod features;
 pub mod geometry;
 pub mod obstacles;
+mod pair_sort;
 pub mod response;
 mod speculate;
 mod zones;
@@ -50,6 +51,7 @@ pub use self::detect::carried_displacement;
 use self::detect::{Detection, Job, Scope};
 use self::features::Ownership;
 use self::obstacles::Obstacles;
+use self::pair_sort::PairSorter;
 use self::response::{Contact, Points, Zones};
 use super::contact::StepWindow;
 use super::motion::Placement;
@@ -265,6 +267,8 @@ struct Workspace {
     moved_list: Vec<u32>,
     /// Buffers of the parallel hierarchy queries of those triangles.
     query_chunks: Vec<detect::QueryChunk>,
+    /// Scratch of the broad phase's pair sorts.
+    pair_sorter: PairSorter,
     /// The cloth's boxes and pairs were speculated for this step, and its
     /// first detection has yet to confirm them (see [`speculate`]).
     speculative: bool,

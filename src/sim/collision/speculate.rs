@@ -98,7 +98,8 @@ impl CollisionPipeline {
 /// [`SweptBvh::self_pairs`] of the real boxes gives.
 pub(super) fn confirmed_self_pairs(bvh: &SweptBvh, ws: &mut Workspace) {
     let (boxes, escaped) = (&ws.triangle_box, &ws.moved_triangle);
-    moved_pairs(bvh, boxes, escaped, &ws.moved_list, &mut ws.query_chunks, &mut ws.escaped_pairs);
+    let scratch = (&mut ws.query_chunks, &mut ws.pair_sorter);
+    moved_pairs(bvh, boxes, escaped, &ws.moved_list, scratch, &mut ws.escaped_pairs);
     let kept = ws.speculative_pairs.iter().copied().filter(|&(a, b)| boxes[a as usize].overlaps(&boxes[b as usize]));
     merge_sorted(kept, &ws.escaped_pairs, &mut ws.pairs);
 }
