@@ -203,12 +203,12 @@ fn a_motion_cache_plays_the_body_it_was_made_from() {
 }
 
 /// The whole walk: never inside the body or itself, and never snagged. Where
-/// a leg swings through the hem, rigid impact zones once carried a few hem
-/// particles 7 cm with the calf in one step (398 % strain for a frame). Since
-/// the strain projections between collision passes no longer pull back into
-/// the body what the impulses pushed off it, the passes resolve those
-/// contacts and no step ends in impact zones: the largest strain stays under
-/// 45 % (31 % measured, 156 % before).
+/// a leg swings through the hem, a step can carry a few hem particles with
+/// the calf, through impact zones or impulses (398 % strain for a frame once).
+/// The projections between collision passes keep the cloth off the body, and
+/// a step that raises the largest strain by more than 25 points is retried
+/// shorter (three such steps here): the largest strain at a frame end stays
+/// under 45 % (33 % measured; 79 % at frame 42 without the retries).
 #[test]
 fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
     let scene = drape::scene::Scene::load(&repo("assets/scenes/skirt_walk.toml")).unwrap();
@@ -232,24 +232,23 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
 }
 
 /// The walk played three times as fast (SCENES.md's `fast_body`): the skirt
-/// stays outside the body at every frame end. Here legs still cross the
-/// hem faster than the impulse passes resolve it, so some steps end in
-/// rigid impact zones that carry hem particles with the skin; those steps
-/// are retried shorter, which keeps the largest strain under 80 % (54 %
-/// measured).
+/// stays outside the body at every frame end. Here legs cross the hem faster
+/// than the impulse passes resolve it, and the steps that snag the hem are
+/// retried shorter, which keeps the largest strain under 60 % (36 %
+/// measured; 54 % when only steps with skin impact zones were retried).
 #[test]
-fn fast_body_keeps_the_skirt_outside_the_body_and_retries_the_steps_its_zones_drag() {
+fn fast_body_keeps_the_skirt_outside_the_body_and_retries_the_steps_that_snag_it() {
     let scene = drape::scene::Scene::load(&repo("assets/scenes/fast_body.toml")).unwrap();
     let mut baker = drape::bake::Baker::new(&scene).unwrap();
-    let mut dragged = 0;
+    let mut snagged = 0;
     while baker.frame() < scene.frame_count {
         let record = baker.advance().unwrap_or_else(|e| panic!("{e}"));
         let i = &record.intersections;
         assert_eq!((i.cloth_pairs, i.collider_pairs, i.penetrating_vertices), (0, 0, 0), "frame {}", record.frame);
-        assert!(record.max_strain < 0.8, "frame {}: {:.0} % strain", record.frame, record.max_strain * 100.0);
-        dragged += record.rollback_causes.dragged;
+        assert!(record.max_strain < 0.6, "frame {}: {:.0} % strain", record.frame, record.max_strain * 100.0);
+        snagged += record.rollback_causes.snagged;
     }
-    assert!(dragged > 0, "no step was retried for its impact zones: the strain bound does not test them");
+    assert!(snagged > 0, "no step was retried for snagging: the strain bound does not test them");
 }
 
 #[test]

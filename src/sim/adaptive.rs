@@ -2,21 +2,22 @@
 //!
 //! A step that fails — a non-finite value, a linear solve that did not
 //! converge, a strain past the blow-up bound, crossings the collision
-//! pipeline could not resolve, or rigid impact zones that moved cloth with a
-//! body's skin and raised the largest strain by more than the zone strain —
-//! is rolled back to the state before it and retried as two steps of half
-//! the length, down to a floor of `nominal / 2^max_halvings`. After a step
-//! succeeds the length doubles again, back to the nominal step. When even the floor fails, advancing stops with
-//! the time, the step and the cause, and the simulator keeps the last good
-//! state: a user never sees a NaN or an explosion.
+//! pipeline could not resolve, or, beside a moving body, a rise of the
+//! largest strain by more than the snag strain — is rolled back to the
+//! state before it and retried as two steps of half the length, down to a
+//! floor of `nominal / 2^max_halvings`. After a step succeeds the length
+//! doubles again, back to the nominal step. When even the floor fails,
+//! advancing stops with the time, the step and the cause, and the simulator
+//! keeps the last good state: a user never sees a NaN or an explosion.
 //!
-//! Impact zones are the collision pipeline's fail-safe: a zone holding a
-//! moving body's skin moves its cloth with that skin, and where a leg swings
-//! through a hem at 4 m/s it drags a few particles 7 cm in one 1/60 s step
-//! while their neighbours stay (400 % strain for a frame). The distance
-//! halves with the step, so such a step is retried shorter, but only down to
-//! [`AdaptiveSettings::zone_halvings`]: past that it is accepted as it is,
-//! never a reason to stop.
+//! A moving body snags cloth where a leg swings through a hem at 4 m/s: in
+//! one 1/60 s step it carries a few particles 7 cm while their neighbours
+//! stay, through the rigid impact zones that hold its skin, through
+//! self-contact zones squeezed between the legs, or through impulses after
+//! the strain projection gave up (400 % strain for a frame at worst). The
+//! distance halves with the step, so such a step is retried shorter, but
+//! only down to [`AdaptiveSettings::snag_halvings`]: past that it is
+//! accepted as it is, never a reason to stop.
 //!
 //! Steps are counted in units of the floor step, so the halved and regrown
 //! steps of a frame add up to the frame exactly; a frame with no failure runs
@@ -60,15 +61,17 @@ pub enum StepFailure {
         /// The bound, unitless.
         bound: f64,
     },
-    /// A step whose rigid impact zones moved cloth with a body's skin raised
-    /// the largest strain by more than the zone strain.
-    #[error("its impact zones stretched the cloth from {:.0} % to {:.0} % strain (at most {:.0} points more)", before * 100.0, after * 100.0, bound * 100.0)]
-    Dragged {
+    /// A step beside a moving body raised the cloth's largest strain by more
+    /// than the snag strain: the body carried some particles away from their
+    /// neighbours faster than the step's collision response and strain
+    /// projection could follow.
+    #[error("it stretched the cloth from {:.0} % to {:.0} % strain (at most {:.0} points more)", before * 100.0, after * 100.0, bound * 100.0)]
+    Snagged {
         /// The largest strain before the step, unitless.
         before: f64,
         /// The largest strain after it, unitless.
         after: f64,
-        /// The zone strain: the largest rise allowed, unitless.
+        /// The snag strain: the largest rise allowed, unitless.
         bound: f64,
     },
     /// The collision pipeline left crossing triangle pairs.
@@ -86,19 +89,18 @@ pub struct AdaptiveSettings {
     pub max_halvings: u32,
     /// Strain past which a step counts as a blow-up, unitless (10 = 1000 %).
     pub blow_up_strain: f64,
-    /// The most a step whose rigid impact zones moved cloth with a body's
-    /// skin may raise the cloth's largest strain by, unitless (0.5 = 50
-    /// points of strain), while the step has been halved fewer than
-    /// [`Self::zone_halvings`] times.
-    pub zone_strain: f64,
-    /// Halvings a step may take to keep its impact zones under
-    /// [`Self::zone_strain`] (3: down to 1/8); fewer than `max_halvings`.
-    pub zone_halvings: u32,
+    /// The most a step beside a moving body may raise the cloth's largest
+    /// strain by, unitless (0.25 = 25 points of strain), while the step has
+    /// been halved fewer than [`Self::snag_halvings`] times.
+    pub snag_strain: f64,
+    /// Halvings a step may take to stay under [`Self::snag_strain`] (3: down
+    /// to 1/8); fewer than `max_halvings`.
+    pub snag_halvings: u32,
 }
 
 impl Default for AdaptiveSettings {
     fn default() -> Self {
-        AdaptiveSettings { max_halvings: 5, blow_up_strain: 10.0, zone_strain: 0.5, zone_halvings: 3 }
+        AdaptiveSettings { max_halvings: 5, blow_up_strain: 10.0, snag_strain: 0.25, snag_halvings: 3 }
     }
 }
 
@@ -127,9 +129,11 @@ pub struct RollbackCauses {
     pub blow_up: u32,
     /// The collision pipeline left crossings.
     pub crossings: u32,
-    /// A step's impact zones raised the largest strain by more than the zone strain.
-    #[serde(default)]
-    pub dragged: u32,
+    /// A step beside a moving body raised the largest strain by more than
+    /// the snag strain (`dragged` in summaries written before it counted
+    /// more than impact zones).
+    #[serde(default, alias = "dragged")]
+    pub snagged: u32,
 }
 
 impl RollbackCauses {
@@ -140,7 +144,7 @@ impl RollbackCauses {
             StepFailure::Unconverged { .. } => &mut self.unconverged,
             StepFailure::BlowUp { .. } => &mut self.blow_up,
             StepFailure::Crossings { .. } => &mut self.crossings,
-            StepFailure::Dragged { .. } => &mut self.dragged,
+            StepFailure::Snagged { .. } => &mut self.snagged,
         };
         *counter += 1;
     }
@@ -151,7 +155,7 @@ impl RollbackCauses {
         self.unconverged += other.unconverged;
         self.blow_up += other.blow_up;
         self.crossings += other.crossings;
-        self.dragged += other.dragged;
+        self.snagged += other.snagged;
     }
 
     /// The causes that occurred, as "N cause" phrases (empty when none did).
@@ -161,7 +165,7 @@ impl RollbackCauses {
             (self.unconverged, "linear solve unconverged"),
             (self.blow_up, "strain blow-up"),
             (self.crossings, "crossings left"),
-            (self.dragged, "dragged by impact zones"),
+            (self.snagged, "snagged on a moving body"),
         ];
         kinds.iter().filter(|(n, _)| *n > 0).map(|(n, what)| format!("{n} {what}")).collect()
     }
@@ -225,7 +229,7 @@ impl Stepper {
 
     /// One step of `h`, the nominal step halved `halvings` times, judged.
     fn attempt(&self, sim: &mut Simulator, h: f64, halvings: u32) -> Result<StepReport, StepFailure> {
-        // Only a body's skin can drag cloth; other scenes skip the sum.
+        // Only a moving body snags cloth; other scenes skip the sum.
         let before = sim.has_animated_bodies().then(|| sim.largest_strain());
         let report =
             sim.step(h).map_err(|StepError::NonFinite { particle, .. }| StepFailure::NonFinite { particle })?;
@@ -238,13 +242,12 @@ impl Stepper {
         if report.collision.unresolved > 0 {
             return Err(StepFailure::Crossings { count: report.collision.unresolved });
         }
-        let bound = self.settings.zone_strain;
+        let bound = self.settings.snag_strain;
         if let Some(before) = before
-            && report.collision.skin_zones > 0
             && report.max_strain - before > bound
-            && halvings < self.settings.zone_halvings
+            && halvings < self.settings.snag_halvings
         {
-            return Err(StepFailure::Dragged { before, after: report.max_strain, bound });
+            return Err(StepFailure::Snagged { before, after: report.max_strain, bound });
         }
         Ok(report)
     }
@@ -261,12 +264,20 @@ mod tests {
         causes.count(&StepFailure::BlowUp { strain: 12.0, bound: 10.0 });
         causes.count(&StepFailure::BlowUp { strain: 11.0, bound: 10.0 });
         causes.count(&StepFailure::Crossings { count: 3 });
-        causes.count(&StepFailure::Dragged { before: 0.01, after: 3.98, bound: 0.5 });
+        causes.count(&StepFailure::Snagged { before: 0.01, after: 3.98, bound: 0.25 });
         let mut total = RollbackCauses { unconverged: 1, ..Default::default() };
         total.add(&causes);
-        assert_eq!(total, RollbackCauses { non_finite: 0, unconverged: 1, blow_up: 2, crossings: 1, dragged: 1 });
+        assert_eq!(total, RollbackCauses { non_finite: 0, unconverged: 1, blow_up: 2, crossings: 1, snagged: 1 });
         let phrases =
-            ["1 linear solve unconverged", "2 strain blow-up", "1 crossings left", "1 dragged by impact zones"];
+            ["1 linear solve unconverged", "2 strain blow-up", "1 crossings left", "1 snagged on a moving body"];
         assert_eq!(total.phrases(), phrases);
+    }
+
+    /// A summary written when only impact zones counted as snags still reads.
+    #[test]
+    fn summaries_that_counted_dragged_steps_read_them_as_snags() {
+        let text = r#"{"non_finite": 0, "unconverged": 0, "blow_up": 1, "crossings": 0, "dragged": 2}"#;
+        let causes: RollbackCauses = serde_json::from_str(text).expect("an older summary's tally");
+        assert_eq!(causes, RollbackCauses { blow_up: 1, snagged: 2, ..Default::default() });
     }
 }

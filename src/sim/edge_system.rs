@@ -1,29 +1,29 @@
 //! The multiplier system `J W Jᵀ μ = C` of fast projection
-//! ([`super::inextensibility`]) as a sparse Cholesky factor: the
-//! preconditioner of the projections that Jacobi-preconditioned conjugate
-//! gradients cannot finish quickly.
+//! ([`super::inextensibility`]) on the active edges, as a sparse Cholesky
+//! factor: the preconditioner of every multiplier solve.
 //!
 //! Row `e` of `J` is the gradient of edge `e`'s length: `u_e` at its first
 //! end, `−u_e` at its second. Entry `(i, j)` of `J W Jᵀ` is therefore
 //! `Σ_v s_iv s_jv u_iᵀ W_v u_j` over the particles `v` the two edges share
 //! (`s = ±1` the side, `W_v = S_v / m_v` the particle's filtered inverse
-//! mass), so the pattern is the edges' adjacency: fixed by the mesh and
-//! analysed (approximate minimum degree, simplicial) once. Only the active
-//! edges take part in a solve; the others get an identity row, so one
-//! analysis serves every active set.
+//! mass), so the pattern is the edges' adjacency, fixed by the mesh: it is
+//! ordered once for all the edges (approximate minimum degree). A factor
+//! covers only the active edges, a few hundred of the skirt's 4,392 in a
+//! typical projection: their pattern is taken from the mesh's, eliminated
+//! in the mesh's order, and analysed (simplicial) whenever the active set
+//! changes, which costs about what the numeric factor does. (A factor of
+//! every edge, the inactive ones given identity rows, cost ~1.3 ms; Jacobi
+//! preconditioning needed ~50 iterations per solve on the skirt and
+//! hundreds on long chains of active edges between pins or contacts.)
 //!
 //! A stretch edge set is often dependent (a flat, fully triangulated patch
 //! has more edges than in-plane degrees of freedom), so `J W Jᵀ` is only
 //! semi-definite. The system is scaled to a unit diagonal and shifted by
 //! [`REGULARIZATION`]: the shift decides only multipliers in the null space
 //! of `W Jᵀ`, which move no particle, and changes the others by a relative
-//! [`REGULARIZATION`].
-//!
-//! Where Jacobi-preconditioned conjugate gradients need hundreds of
-//! iterations (long chains of active edges held by pins or by contacts), a
-//! factor costs a few dozen of them, and preconditioned by it they converge
-//! in one or two. Factor and solve run on the calling thread, so the result
-//! is the same at any thread count.
+//! [`REGULARIZATION`]. Preconditioned by the factor, conjugate gradients
+//! converge in one or two iterations. Factor and solve run on the calling
+//! thread, so the result is the same at any thread count.
 
 use std::sync::Arc;
 
@@ -57,28 +57,38 @@ pub enum EdgeSystemError {
 struct Coupling {
     /// Index of the entry in the lower triangle's values.
     entry: u32,
-    /// Row edge `i` and column edge `j` (`i > j`).
+    /// Row edge `i` (`i >` the column's edge).
     row: u32,
-    column: u32,
     /// The shared particle.
     particle: u32,
     /// `s_iv s_jv`.
     sign: f64,
 }
 
-/// What is fixed by the mesh: the lower triangle's pattern in natural edge
-/// order, where each entry's value comes from, and the symbolic factor.
-struct Analysis {
+/// What is fixed by the mesh: the lower triangle's pattern over every edge,
+/// in natural edge order, where each entry's value comes from, and an
+/// elimination order of all the edges.
+struct Pattern {
     edges: usize,
-    /// Where each column starts, which is its diagonal entry `(e, e)`.
+    /// Where each column's entries start; its first is the diagonal `(e, e)`.
     column_start: Vec<u32>,
     row_index: Vec<u32>,
+    /// Where each column's couplings start in `couplings`.
+    coupling_start: Vec<u32>,
+    /// By column, then row, then particle.
     couplings: Vec<Coupling>,
-    symbolic: SymbolicCholesky<u32>,
+    /// Where each edge's neighbours start in `neighbours`.
+    neighbour_start: Vec<u32>,
+    /// Per edge, the edges it shares a particle with and the index of their
+    /// entry in the lower triangle.
+    neighbours: Vec<(u32, u32)>,
+    /// Each edge's place in an approximate minimum degree order of all the
+    /// edges: active edges are eliminated in this order.
+    rank: Vec<u32>,
 }
 
-impl Analysis {
-    /// The pattern of `J W Jᵀ` for edges `ends` on `vertex_count` particles, analysed.
+impl Pattern {
+    /// The pattern of `J W Jᵀ` for edges `ends` on `vertex_count` particles.
     fn new(vertex_count: usize, ends: &[[u32; 2]]) -> Result<Self, EdgeSystemError> {
         let mut incident: Vec<Vec<(u32, f64)>> = vec![Vec::new(); vertex_count];
         for (e, [a, b]) in ends.iter().enumerate() {
@@ -94,41 +104,155 @@ impl Analysis {
             }
         }
         terms.sort_unstable_by_key(|&(column, row, particle, _)| (column, row, particle));
-        let (mut row_index, mut column_start, mut couplings) =
-            (Vec::new(), Vec::with_capacity(ends.len() + 1), Vec::new());
+        let n = ends.len();
+        let (mut row_index, mut couplings) = (Vec::new(), Vec::new());
+        let (mut column_start, mut coupling_start) = (Vec::with_capacity(n + 1), Vec::with_capacity(n + 1));
         for &(column, row, particle, sign) in &terms {
             if row == column {
                 column_start.push(row_index.len() as u32);
+                coupling_start.push(couplings.len() as u32);
                 row_index.push(row);
                 continue;
             }
             if row_index.last() != Some(&row) {
                 row_index.push(row);
             }
-            couplings.push(Coupling { entry: row_index.len() as u32 - 1, row, column, particle, sign });
+            couplings.push(Coupling { entry: row_index.len() as u32 - 1, row, particle, sign });
         }
         column_start.push(row_index.len() as u32);
-        let n = ends.len();
-        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
-        // Edge adjacency fills little: supernodes would be a few columns wide,
-        // and the simplicial factor is faster here (measured on a skirt's
-        // 4,392 edges: 1.3 ms against 1.8 ms).
-        let simplicial = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
-            ..Default::default()
-        };
-        let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, simplicial)
-            .map_err(|e| EdgeSystemError::Analysis(format!("{e:?}")))?;
-        Ok(Analysis { edges: n, column_start, row_index, couplings, symbolic })
+        coupling_start.push(couplings.len() as u32);
+        let (neighbour_start, neighbours) = symmetric_neighbours(n, &column_start, &row_index);
+        let rank = minimum_degree_rank(n, &column_start, &row_index)?;
+        Ok(Pattern { edges: n, column_start, row_index, coupling_start, couplings, neighbour_start, neighbours, rank })
     }
 
-    /// Index of entry `(e, e)` in the values.
-    fn diagonal(&self, e: usize) -> usize {
-        self.column_start[e] as usize
+    /// The couplings of column `e`.
+    fn couplings_of(&self, e: usize) -> &[Coupling] {
+        &self.couplings[self.coupling_start[e] as usize..self.coupling_start[e + 1] as usize]
+    }
+
+    /// The edges that share a particle with edge `e`, with their entry.
+    fn neighbours_of(&self, e: usize) -> &[(u32, u32)] {
+        &self.neighbours[self.neighbour_start[e] as usize..self.neighbour_start[e + 1] as usize]
+    }
+}
+
+/// Both triangles of a lower-triangle pattern (`column_start`, `row_index`,
+/// each column's diagonal first) as neighbour lists: where each column's
+/// list starts, and the lists of `(neighbour, entry index)`.
+fn symmetric_neighbours(n: usize, column_start: &[u32], row_index: &[u32]) -> (Vec<u32>, Vec<(u32, u32)>) {
+    let below_diagonal = |j: usize| {
+        let entries = column_start[j] as usize + 1..column_start[j + 1] as usize;
+        entries.map(move |entry| (entry, row_index[entry] as usize))
+    };
+    let mut start = vec![0u32; n + 1];
+    for j in 0..n {
+        for (_, i) in below_diagonal(j) {
+            start[i + 1] += 1;
+            start[j + 1] += 1;
+        }
+    }
+    for j in 0..n {
+        start[j + 1] += start[j];
+    }
+    let mut fill = start.clone();
+    let mut neighbours = vec![(0, 0); start[n] as usize];
+    for j in 0..n {
+        for (entry, i) in below_diagonal(j) {
+            for (at, other) in [(i, j), (j, i)] {
+                neighbours[fill[at] as usize] = (other as u32, entry as u32);
+                fill[at] += 1;
+            }
+        }
+    }
+    (start, neighbours)
+}
+
+/// Each column's place in faer's approximate minimum degree order of the
+/// symmetric matrix whose lower triangle has pattern `column_start`,
+/// `row_index`.
+fn minimum_degree_rank(n: usize, column_start: &[u32], row_index: &[u32]) -> Result<Vec<u32>, EdgeSystemError> {
+    let pattern = SymbolicSparseColMatRef::new_checked(n, n, column_start, None, row_index);
+    let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, simplicial())
+        .map_err(|e| EdgeSystemError::Analysis(format!("{e:?}")))?;
+    let mut rank: Vec<u32> = (0..n as u32).collect();
+    if let Some(permutation) = symbolic.perm() {
+        // `order[k]` is the column eliminated k-th.
+        let (order, _) = permutation.arrays();
+        for (k, &column) in order.iter().enumerate() {
+            rank[column as usize] = k as u32;
+        }
+    }
+    Ok(rank)
+}
+
+/// Edge adjacency fills little: supernodes would be a few columns wide, and
+/// the simplicial factor is faster here (measured on a skirt's 4,392 edges:
+/// 1.3 ms against 1.8 ms).
+fn simplicial() -> CholeskySymbolicParams<'static> {
+    CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+        ..Default::default()
+    }
+}
+
+/// The pattern of `J W Jᵀ` on one set of active edges, in their elimination
+/// order (their ranks in the mesh's order: restricting an elimination order
+/// to a subset of the columns fills no more than the whole order does on
+/// them), analysed.
+struct ActivePattern {
+    /// The active edges it was made for, ascending.
+    edges: Vec<u32>,
+    /// Per active edge (in `edges`' order), its column.
+    column_of: Vec<u32>,
+    column_start: Vec<u32>,
+    row_index: Vec<u32>,
+    symbolic: SymbolicCholesky<u32>,
+}
+
+impl ActivePattern {
+    /// `pattern` restricted to the `active` edges (ascending, `is_active`
+    /// per edge). Fills `column`, per active edge its column, and `entry`,
+    /// per entry of `pattern` between two active edges its index here.
+    fn new(
+        pattern: &Pattern,
+        active: &[u32],
+        is_active: &[bool],
+        column: &mut [u32],
+        entry: &mut [u32],
+    ) -> Result<Self, EdgeSystemError> {
+        let mut order = active.to_vec();
+        order.sort_unstable_by_key(|&e| pattern.rank[e as usize]);
+        for (c, &e) in order.iter().enumerate() {
+            column[e as usize] = c as u32;
+        }
+        let (mut column_start, mut row_index) = (Vec::with_capacity(active.len() + 1), Vec::new());
+        let mut above = Vec::new();
+        for (c, &e) in order.iter().enumerate() {
+            let e = e as usize;
+            column_start.push(row_index.len() as u32);
+            above.clear();
+            let active_neighbours = pattern.neighbours_of(e).iter().filter(|&&(i, _)| is_active[i as usize]);
+            above.extend(active_neighbours.map(|&(i, at)| (column[i as usize], at)).filter(|&(r, _)| r < c as u32));
+            above.sort_unstable();
+            above.push((c as u32, pattern.column_start[e]));
+            for &(r, at) in &above {
+                entry[at as usize] = row_index.len() as u32;
+                row_index.push(r);
+            }
+        }
+        column_start.push(row_index.len() as u32);
+        let n = active.len();
+        let restricted = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
+        let symbolic = factorize_symbolic_cholesky(restricted, Side::Upper, SymmetricOrdering::Identity, simplicial())
+            .map_err(|e| EdgeSystemError::Analysis(format!("{e:?}")))?;
+        let column_of = active.iter().map(|&e| column[e as usize]).collect();
+        Ok(ActivePattern { edges: active.to_vec(), column_of, column_start, row_index, symbolic })
     }
 
     fn pattern(&self) -> SymbolicSparseColMatRef<'_, u32> {
-        SymbolicSparseColMatRef::new_checked(self.edges, self.edges, &self.column_start, None, &self.row_index)
+        let n = self.edges.len();
+        SymbolicSparseColMatRef::new_checked(n, n, &self.column_start, None, &self.row_index)
     }
 }
 
@@ -144,42 +268,51 @@ pub struct EdgeRow {
 /// The factorable system `J W Jᵀ` of a cloth's constrained edges, with its
 /// work space.
 pub struct EdgeSystem {
-    analysis: Arc<Analysis>,
-    /// Lower-triangle values of the scaled, shifted system.
+    pattern: Arc<Pattern>,
+    /// The pattern on the active edges of the last factor, and its factor.
+    active: Option<(ActivePattern, Llt<f64>)>,
+    /// Per edge: its column in the active pattern (valid for active edges).
+    column: Vec<u32>,
+    /// Per entry of `pattern`: its index in the active pattern (valid for
+    /// entries between active edges).
+    entry: Vec<u32>,
+    /// Upper-triangle values of the scaled, shifted system on the active
+    /// edges (each column's diagonal last).
     values: Vec<f64>,
-    factor: Llt<f64>,
-    /// `1 / √(J W Jᵀ)_ee` of each active edge (1 for the others).
+    /// Per column of the active pattern, `1 / √(J W Jᵀ)_ee` of its edge.
     scale: Vec<f64>,
-    rhs: Vec<f64>,
+    /// A right-hand side in the active pattern's column order.
+    permuted: Vec<f64>,
 }
 
 impl EdgeSystem {
-    /// The system of edges `ends` on `vertex_count` particles, analysed once.
+    /// The system of edges `ends` on `vertex_count` particles, with an
+    /// elimination order of all of them.
     pub fn new(vertex_count: usize, ends: &[[u32; 2]]) -> Result<Self, EdgeSystemError> {
-        Ok(Self::with_analysis(Arc::new(Analysis::new(vertex_count, ends)?)))
+        Ok(Self::with_pattern(Arc::new(Pattern::new(vertex_count, ends)?)))
     }
 
-    fn with_analysis(analysis: Arc<Analysis>) -> Self {
-        let symbolic = &analysis.symbolic;
+    fn with_pattern(pattern: Arc<Pattern>) -> Self {
         EdgeSystem {
-            values: vec![0.0; analysis.row_index.len()],
-            factor: Llt::new(symbolic),
-            scale: vec![1.0; analysis.edges],
-            rhs: vec![0.0; analysis.edges],
-            analysis,
+            column: vec![0; pattern.edges],
+            entry: vec![0; pattern.row_index.len()],
+            active: None,
+            values: Vec::new(),
+            scale: Vec::new(),
+            permuted: Vec::new(),
+            pattern,
         }
     }
 
-    /// Entries of the factor: its cost, about
-    /// [`super::inextensibility::FACTOR_ENTRY_COST`] Jacobi iterations on one
-    /// active edge each.
-    pub fn factor_entries(&self) -> usize {
-        self.analysis.symbolic.len_val()
+    /// Whether the last factor was made for the `active` edges.
+    pub fn is_factored_for(&self, active: &[u32]) -> bool {
+        self.active.as_ref().is_some_and(|(analysed, _)| analysed.edges == active)
     }
 
-    /// Factors `J W Jᵀ` restricted to the `active` edges (`is_active` per
-    /// edge, `active` their list), edge `e` linearised as `row(e)`, for
-    /// particles with `constraints` and `mass` (kg).
+    /// Factors `J W Jᵀ` restricted to the `active` edges (ascending;
+    /// `is_active` per edge), edge `e` linearised as `row(e)`, for particles
+    /// with `constraints` and `mass` (kg). The restricted pattern is analysed
+    /// again whenever the active edges differ from the last factor's.
     pub fn factor(
         &mut self,
         active: &[u32],
@@ -188,57 +321,68 @@ impl EdgeSystem {
         constraints: &[Constraint],
         mass: &[f64],
     ) -> Result<(), EdgeSystemError> {
-        let analysis = &*self.analysis;
-        self.values.fill(0.0);
-        self.scale.fill(1.0);
-        for e in 0..analysis.edges {
-            self.values[analysis.diagonal(e)] = 1.0;
+        let pattern = &*self.pattern;
+        if !self.is_factored_for(active) {
+            self.active = None;
+            let analysed = ActivePattern::new(pattern, active, is_active, &mut self.column, &mut self.entry)?;
+            let factor = Llt::new(&analysed.symbolic);
+            self.active = Some((analysed, factor));
         }
+        let Some((analysed, factor)) = &mut self.active else { return Ok(()) };
+        let column = &self.column;
+        self.scale.resize(active.len(), 0.0);
         for &e in active {
-            let e = e as usize;
-            self.scale[e] = 1.0 / row(e).diagonal.sqrt();
-            self.values[analysis.diagonal(e)] = 1.0 + REGULARIZATION;
+            self.scale[column[e as usize] as usize] = 1.0 / row(e as usize).diagonal.sqrt();
+        }
+        self.values.clear();
+        self.values.resize(analysed.row_index.len(), 0.0);
+        for &end in &analysed.column_start[1..] {
+            self.values[end as usize - 1] = 1.0 + REGULARIZATION;
         }
         let weighted = |v: u32, u: &Vector3<f64>| constraints[v as usize].filter(*u) / mass[v as usize];
-        for c in &analysis.couplings {
-            let (i, j) = (c.row as usize, c.column as usize);
-            if is_active[i] && is_active[j] {
-                let coupling = c.sign * row(i).direction.dot(&weighted(c.particle, &row(j).direction));
-                self.values[c.entry as usize] += coupling * self.scale[i] * self.scale[j];
+        for &j in active {
+            let (j, entry) = (j as usize, &self.entry);
+            let direction = row(j).direction;
+            for c in pattern.couplings_of(j).iter().filter(|c| is_active[c.row as usize]) {
+                let i = c.row as usize;
+                let coupling = c.sign * row(i).direction.dot(&weighted(c.particle, &direction));
+                let scale = self.scale[column[i] as usize] * self.scale[column[j] as usize];
+                self.values[entry[c.entry as usize] as usize] += coupling * scale;
             }
         }
-        let matrix = SparseColMatRef::new(analysis.pattern(), &self.values);
-        self.factor.factor(&analysis.symbolic, matrix).map_err(|_| EdgeSystemError::NotPositiveDefinite)
+        let matrix = SparseColMatRef::new(analysed.pattern(), &self.values);
+        factor.factor(&analysed.symbolic, matrix).map_err(|_| EdgeSystemError::NotPositiveDefinite)
     }
 
-    /// `out = M⁻¹ rhs` on the `active` edges (as [`Self::factor`] was given
-    /// them; `rhs` and `out` hold one value per entry of `active`), with `M`
-    /// the factored `J W Jᵀ`.
-    pub fn solve(&mut self, active: &[u32], rhs: &[f64], out: &mut [f64]) {
-        self.rhs.fill(0.0);
-        for (&e, &value) in active.iter().zip(rhs) {
-            self.rhs[e as usize] = value * self.scale[e as usize];
+    /// `out = M⁻¹ rhs` on the active edges of the last [`Self::factor`]
+    /// (`rhs` and `out` hold one value per active edge, in ascending edge
+    /// order), with `M` the factored `J W Jᵀ`.
+    pub fn solve(&mut self, rhs: &[f64], out: &mut [f64]) {
+        let Some((analysed, factor)) = &mut self.active else { return out.copy_from_slice(rhs) };
+        self.permuted.resize(rhs.len(), 0.0);
+        for (&c, &value) in analysed.column_of.iter().zip(rhs) {
+            self.permuted[c as usize] = value * self.scale[c as usize];
         }
-        self.factor.solve_in_place(&self.analysis.symbolic, &mut self.rhs);
-        for (value, &e) in out.iter_mut().zip(active) {
-            *value = self.rhs[e as usize] * self.scale[e as usize];
+        factor.solve_in_place(&analysed.symbolic, &mut self.permuted);
+        for (&c, value) in analysed.column_of.iter().zip(out) {
+            *value = self.permuted[c as usize] * self.scale[c as usize];
         }
     }
 }
 
 impl Clone for EdgeSystem {
-    /// The same analysis, with fresh work space (each projection builds its
-    /// own factors).
+    /// The same mesh pattern, with fresh work space (each projection builds
+    /// its own factors).
     fn clone(&self) -> Self {
-        Self::with_analysis(Arc::clone(&self.analysis))
+        Self::with_pattern(Arc::clone(&self.pattern))
     }
 }
 
 impl std::fmt::Debug for EdgeSystem {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("EdgeSystem")
-            .field("edges", &self.analysis.edges)
-            .field("factor_values", &self.analysis.symbolic.len_val())
+            .field("edges", &self.pattern.edges)
+            .field("active_edges", &self.active.as_ref().map_or(0, |(analysed, _)| analysed.edges.len()))
             .finish()
     }
 }
@@ -327,7 +471,7 @@ mod tests {
         system.factor(&active, &is_active, |e| rows[e], &constraints, &mass).unwrap();
         let violation: Vec<f64> = active.iter().map(|&e| 0.01 * (f64::from(e) * 0.37).cos()).collect();
         let mut mu = vec![0.0; active.len()];
-        system.solve(&active, &violation, &mut mu);
+        system.solve(&violation, &mut mu);
 
         let (j, w) = dense(&ends, &active, &rows, &constraints, &mass);
         let expected = (&j * &w * j.transpose()).cholesky().unwrap().solve(&DVector::from_column_slice(&violation));
@@ -355,10 +499,33 @@ mod tests {
         let mut system = EdgeSystem::new(mass.len(), &ends).unwrap();
         system.factor(&active, &vec![true; ends.len()], |e| rows[e], &constraints, &mass).unwrap();
         let mut mu = vec![0.0; active.len()];
-        system.solve(&active, violation.as_slice(), &mut mu);
+        system.solve(violation.as_slice(), &mut mu);
         let motion = &w * j.transpose() * DVector::from_column_slice(&mu);
         let exact = &w * j.transpose() * &mu0;
         let error = (&motion - &exact).norm() / exact.norm();
         assert!(error < 1e-5, "particle motion off by {error:e}");
+    }
+
+    /// The active pattern takes its elimination order from the mesh's:
+    /// with every edge active it fills exactly as faer's own minimum degree
+    /// analysis of the whole pattern does, and on a subset no more than
+    /// that analysis restricted to it.
+    #[test]
+    fn active_edges_are_eliminated_in_the_mesh_order_without_extra_fill() {
+        let (ends, _, mass) = patch(8, 0.0);
+        let pattern = Pattern::new(mass.len(), &ends).unwrap();
+        let (mut column, mut entry) = (vec![0; ends.len()], vec![0; pattern.row_index.len()]);
+        let all: Vec<u32> = (0..ends.len() as u32).collect();
+        let restricted = ActivePattern::new(&pattern, &all, &vec![true; ends.len()], &mut column, &mut entry).unwrap();
+        let n = ends.len();
+        let whole = SymbolicSparseColMatRef::new_checked(n, n, &pattern.column_start, None, &pattern.row_index);
+        let amd = factorize_symbolic_cholesky(whole, Side::Lower, SymmetricOrdering::Amd, simplicial()).unwrap();
+        assert_eq!(restricted.symbolic.len_val(), amd.len_val());
+
+        let some: Vec<u32> = all.iter().copied().filter(|e| e % 4 != 1).collect();
+        let mut is_active = vec![false; n];
+        some.iter().for_each(|&e| is_active[e as usize] = true);
+        let subset = ActivePattern::new(&pattern, &some, &is_active, &mut column, &mut entry).unwrap();
+        assert!(subset.symbolic.len_val() < amd.len_val());
     }
 }

@@ -15,12 +15,9 @@
 //! constraints: eq. 6 with `Δt² λ = −μ` and `W = M⁻¹`. Pinned particles do not
 //! move (`W = 0`); a particle held on a collider's surface slides along it
 //! (`W = M⁻¹ (I − n nᵀ)`). `J W Jᵀ` couples edges that share a particle; it is
-//! applied matrix-free inside a Jacobi-preconditioned conjugate-gradient solve.
-//! Where that solve does not converge within the iterations a factor would
-//! cost (long chains of active edges between pins or contacts need hundreds),
-//! a sparse Cholesky factor of `J W Jᵀ` ([`super::edge_system`])
-//! preconditions it instead, rebuilt at each of the projection's later
-//! Newton iterations.
+//! applied matrix-free inside a conjugate-gradient solve, preconditioned by
+//! a sparse Cholesky factor of `J W Jᵀ` on the active edges
+//! ([`super::edge_system`]), rebuilt at each Newton iteration.
 //! Velocities change with positions (`Δv = Δx / h`), so the step stays
 //! consistent. The inequality is an active set: an edge joins when it exceeds
 //! its limit, and leaves when its multiplier would push its ends apart (a
@@ -87,18 +84,9 @@ const UNREACHABLE_SHARE: f64 = 0.5;
 /// Conjugate-gradient iterations of one multiplier solve at most.
 const CG_ITERATIONS: u32 = 400;
 
-/// Jacobi-preconditioned iterations a projection tries at least before it
-/// factors `J W Jᵀ`.
-pub const MIN_JACOBI_BUDGET: u32 = 40;
-
-/// The time of a factor of `J W Jᵀ` per entry of the factor, in
-/// Jacobi-preconditioned iterations on one active edge (measured on the
-/// skirt of `skirt_walk`: 17 ns against 13 ns): a projection tries as many
-/// Jacobi iterations as a factor would cost before it builds one.
-pub const FACTOR_ENTRY_COST: f64 = 1.3;
-
 /// Iterations preconditioned by a kept factor (made for the same
-/// linearisation, before edges were released) before it is rebuilt.
+/// linearisation and active edges, before holds were released) before it
+/// is rebuilt.
 pub const KEPT_FACTOR_BUDGET: u32 = 6;
 
 /// Relative residual at which a Newton iteration's linear solve stops.
@@ -217,17 +205,14 @@ struct Workspace {
     saved: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Whether this projection has a factor of `J W Jᵀ` to precondition with.
     factored: bool,
-    /// Whether Jacobi preconditioning was too slow in this projection.
-    factors_needed: bool,
 }
 
-/// The direct solver of `J W Jᵀ`, analysed the first time a projection needs it.
-#[derive(Clone, Debug, Default)]
+/// The direct solver of `J W Jᵀ`, made the first time a projection needs it.
+#[derive(Clone, Debug)]
 enum DirectSolver {
-    #[default]
     NotNeededYet,
     Ready(Box<EdgeSystem>),
-    /// The analysis failed: conjugate gradients alone.
+    /// The mesh's elimination order could not be had: conjugate gradients alone.
     Unavailable,
 }
 
@@ -240,6 +225,7 @@ pub struct StrainLimits {
     /// Garment of each edge.
     edge_garment: Vec<u32>,
     ws: Workspace,
+    /// The factorable `J W Jᵀ`, made the first time a projection needs it.
     direct: DirectSolver,
     /// Whether the projection under way releases pushing edges.
     release: Release,
@@ -277,7 +263,7 @@ impl StrainLimits {
             edges: EdgeSet::new(cloth.vertex_count(), ends, rest_length),
             edge_garment,
             ws: Workspace::default(),
-            direct: DirectSolver::default(),
+            direct: DirectSolver::NotNeededYet,
             release: Release::PushingEdges,
             holds: Vec::new(),
             held: Vec::new(),
@@ -408,7 +394,7 @@ impl StrainLimits {
     /// The chosen method, and clamping after a failed projection when `fallback`.
     fn run(&mut self, state: &mut ProjectedState, fallback: bool) -> ProjectionReport {
         let ws = &mut self.ws;
-        (ws.factored, ws.factors_needed) = (false, false);
+        ws.factored = false;
         ws.active.clear();
         ws.active.resize(self.edges.ends.len(), false);
         ws.active_list.clear();
@@ -613,15 +599,13 @@ impl StrainLimits {
         ws.linearised.largest_movable_excess()
     }
 
-    /// Solves `(J W Jᵀ) μ = C` on the active edges by conjugate gradients,
-    /// Jacobi-preconditioned within the iterations a factor would cost
-    /// ([`Self::jacobi_budget`]). Where that is not enough, a factor of
-    /// `J W Jᵀ` preconditions them, and every later solve of the projection
-    /// gets one too: a fresh factor at each new linearisation (one kept from
-    /// the last Newton iteration rarely converges within
-    /// [`KEPT_FACTOR_BUDGET`] where the edges turn far enough to need it),
-    /// the kept one after edges were released at the same linearisation.
-    /// Without a factor, Jacobi up to [`CG_ITERATIONS`].
+    /// Solves `(J W Jᵀ) μ = C` on the active edges by conjugate gradients
+    /// preconditioned by a factor of `J W Jᵀ` on those edges, with which
+    /// they converge in one or two iterations: a fresh factor at each new
+    /// linearisation or active set, the kept one after holds were released at
+    /// the same linearisation (refactored unless it converges within
+    /// [`KEPT_FACTOR_BUDGET`]). Where no factor can be had, Jacobi up to
+    /// [`CG_ITERATIONS`].
     fn solve_multipliers(
         &mut self,
         constraints: &[Constraint],
@@ -629,38 +613,24 @@ impl StrainLimits {
         linearisation: Linearisation,
         report: &mut ProjectionReport,
     ) {
-        let first = if self.ws.factored && linearisation == Linearisation::Same {
-            Some((Preconditioning::Factor, KEPT_FACTOR_BUDGET))
-        } else if self.ws.factors_needed {
-            None
-        } else {
-            Some((Preconditioning::Jacobi, self.jacobi_budget(mass.len())))
-        };
-        if let Some((preconditioning, budget)) = first {
-            let (iterations, converged) = self.conjugate_gradients(constraints, mass, preconditioning, budget);
+        let kept = self.ws.factored
+            && linearisation == Linearisation::Same
+            && matches!(&self.direct, DirectSolver::Ready(system) if system.is_factored_for(&self.ws.active_list));
+        if kept {
+            let (iterations, converged) =
+                self.conjugate_gradients(constraints, mass, Preconditioning::Factor, KEPT_FACTOR_BUDGET);
             report.cg_iterations += iterations;
             if converged {
                 return;
             }
         }
-        self.ws.factors_needed = true;
         self.ws.factored = self.factor(constraints, mass);
         let preconditioning = if self.ws.factored { Preconditioning::Factor } else { Preconditioning::Jacobi };
         report.factorizations += u32::from(self.ws.factored);
         report.cg_iterations += self.conjugate_gradients(constraints, mass, preconditioning, CG_ITERATIONS).0;
     }
 
-    /// Jacobi iterations worth trying on the active edges before a factor:
-    /// as many as the factor costs ([`FACTOR_ENTRY_COST`]), within
-    /// [`MIN_JACOBI_BUDGET`] and [`CG_ITERATIONS`]. Analyses the factor's pattern
-    /// the first time it is asked.
-    fn jacobi_budget(&mut self, vertex_count: usize) -> u32 {
-        let DirectSolver::Ready(system) = self.direct_solver(vertex_count) else { return CG_ITERATIONS };
-        let per_edge = system.factor_entries() as f64 / self.ws.active_list.len().max(1) as f64;
-        ((FACTOR_ENTRY_COST * per_edge) as u32).clamp(MIN_JACOBI_BUDGET, CG_ITERATIONS)
-    }
-
-    /// The direct solver, analysed on first use.
+    /// The direct solver, made on first use.
     fn direct_solver(&mut self, vertex_count: usize) -> &mut DirectSolver {
         if matches!(self.direct, DirectSolver::NotNeededYet) {
             self.direct = match EdgeSystem::new(vertex_count, &self.edges.ends) {
@@ -686,7 +656,7 @@ impl StrainLimits {
         let ws = &mut self.ws;
         match (preconditioning, &mut self.direct) {
             (Preconditioning::Factor, DirectSolver::Ready(system)) => {
-                system.solve(&ws.active_list, &ws.residual, &mut ws.preconditioned);
+                system.solve(&ws.residual, &mut ws.preconditioned);
             }
             _ => {
                 for (i, &e) in ws.active_list.iter().enumerate() {
@@ -1104,8 +1074,8 @@ mod tests {
     /// cloth hanging at its limits whose middle an impulse pass kicked
     /// sideways by 2 cm, the limits are met, every particle ends within
     /// 0.4 mm of where the exact inequality projection puts it (0.18 mm
-    /// measured), with fewer factors and iterations (6 and 46 against 12
-    /// and 98).
+    /// measured), with fewer factors and iterations (6 and 6 against 15
+    /// and 15).
     #[test]
     fn between_passes_near_limit_edges_are_held_at_their_limit() {
         let (cloth, start, pinned) = pulled_from_one_side(24);

@@ -32,8 +32,9 @@ impl<T: RealField + ComplexField<Real = T> + Copy> Llt<T> {
         }
     }
 
-    /// Factors `matrix` (its lower triangle, in the pattern `symbolic` was
-    /// analysed from).
+    /// Factors `matrix` (its upper triangle, in the pattern `symbolic` was
+    /// analysed from, which faer factors as it is when no ordering was
+    /// asked for).
     pub fn factor(
         &mut self,
         symbolic: &SymbolicCholesky<u32>,
@@ -43,7 +44,7 @@ impl<T: RealField + ComplexField<Real = T> + Copy> Llt<T> {
             .factorize_numeric_llt(
                 &mut self.values,
                 matrix,
-                Side::Lower,
+                Side::Upper,
                 Default::default(),
                 Par::Seq,
                 MemStack::new(&mut self.factor_scratch),

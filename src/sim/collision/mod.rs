@@ -179,8 +179,6 @@ pub struct CollisionReport {
     pub constraint_set: u32,
     /// Rounds of impact zones needed.
     pub zone_rounds: u32,
-    /// Zones that moved cloth with an animated body's skin, over all rounds.
-    pub skin_zones: u32,
     /// Crossings left when the step ends (should be 0).
     pub unresolved: u32,
 }
@@ -353,8 +351,8 @@ impl CollisionPipeline {
         (particle.thickness, particle.friction) = (thickness, friction);
     }
 
-    /// Whether an animated body is among the obstacles: only then can a zone
-    /// move cloth with a body's skin ([`CollisionReport::skin_zones`]).
+    /// Whether an animated body is among the obstacles: only then can the
+    /// cloth snag on one ([`crate::sim::adaptive`]).
     pub fn has_animated_bodies(&self) -> bool {
         self.obstacles.bodies.iter().any(|b| b.animation.is_some())
     }

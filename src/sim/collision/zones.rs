@@ -27,7 +27,6 @@ impl CollisionPipeline {
         report: &mut CollisionReport,
     ) -> (u32, u32) {
         let total = self.ws.start.len();
-        let particles = self.particles.len() as u32;
         self.ws.zones.reset(total);
         let mut round = 0;
         loop {
@@ -69,8 +68,6 @@ impl CollisionPipeline {
                 // moves with its nearest kinematic point. A zone holding only
                 // rigid bodies moves with the rigid body it holds.
                 let deforming = kinematic.iter().any(|(_, k)| *k == Kinematic::Deforming);
-                let skin = kinematic.iter().any(|&(i, k)| i >= particles && k == Kinematic::Deforming);
-                report.skin_zones += u32::from(skin);
                 let anchors: Vec<(Vector3<f64>, Vector3<f64>)> = match deforming {
                     true => {
                         kinematic.iter().map(|&(i, _)| (self.ws.start[i as usize], self.ws.end[i as usize])).collect()
