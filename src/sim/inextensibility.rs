@@ -205,6 +205,8 @@ struct Workspace {
     saved: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Whether this projection has a factor of `J W Jᵀ` to precondition with.
     factored: bool,
+    /// Particles whose holds the last round released.
+    released: Vec<u32>,
 }
 
 /// The direct solver of `J W Jᵀ`, made the first time a projection needs it.
@@ -470,7 +472,7 @@ impl StrainLimits {
             if holding {
                 for _ in 0..RELEASE_ROUNDS {
                     self.gather_active(Compact::Multiplier);
-                    if !self.release_holds(held, state.constraints) {
+                    if !self.release_holds(held, state.constraints, state.x, state.mass) {
                         break;
                     }
                     self.solve_multipliers(held, state.mass, Linearisation::Same, report);
@@ -500,20 +502,31 @@ impl StrainLimits {
     /// would move away from its obstacle (the correction `−W Jᵀ μ` without
     /// the hold has a positive component along `n`): a hold only keeps a
     /// particle from moving towards the obstacle. A released particle gets
-    /// its own constraint from `free` back. Returns whether any was released
+    /// its own constraint from `free` back, and its edges are linearised
+    /// again under it (their `J W Jᵀ` diagonals grow: a factor made with the
+    /// held ones is not positive definite). Returns whether any was released
     /// (the multipliers must then be solved again).
-    fn release_holds(&mut self, held: &mut [Constraint], free: &[Constraint]) -> bool {
-        let ws = &self.ws;
-        let before = self.holds.len();
+    fn release_holds(
+        &mut self,
+        held: &mut [Constraint],
+        free: &[Constraint],
+        x: &[Vector3<f64>],
+        mass: &[f64],
+    ) -> bool {
+        let ws = &mut self.ws;
+        ws.released.clear();
+        let (is_touched, gathered, released) = (&ws.is_touched, &ws.gathered, &mut ws.released);
         self.holds.retain(|&(v, n)| {
-            let v = v as usize;
-            let away = ws.is_touched[v] && n.dot(&ws.gathered[v]) < 0.0;
+            let away = is_touched[v as usize] && n.dot(&gathered[v as usize]) < 0.0;
             if away {
-                held[v] = free[v];
+                held[v as usize] = free[v as usize];
+                released.push(v);
             }
             !away
         });
-        self.holds.len() < before
+        let particles = Particles { x, constraints: held, mass };
+        ws.linearised.update_at(ws.released.iter().copied(), &self.edges, particles);
+        !ws.released.is_empty()
     }
 
     /// Takes out of the active set every edge within its limit whose
@@ -1031,6 +1044,24 @@ mod tests {
             let i = i as usize;
             assert!((x[i] - start[i]).dot(&n) >= -1e-9, "particle {i} moved back: {}", x[i] - start[i]);
         }
+    }
+
+    /// Holds that the limits release change the released particles'
+    /// weights: their edges are linearised again, so the factor of `J W Jᵀ`
+    /// stays positive definite and solves in a few iterations. (With the
+    /// held diagonals kept it was not positive definite, and the solve fell
+    /// back to Jacobi iterations: 185 in all here, against 17.)
+    #[test]
+    fn released_holds_leave_a_factor_that_solves_in_few_iterations() {
+        let (cloth, start, pinned) = pulled_from_one_side(24);
+        let away = Vector3::new(1.0, 0.0, -1.0).normalize();
+        let holds: Vec<(u32, Vector3<f64>)> = (24..start.len() as u32).map(|i| (i, away)).collect();
+        let (mut x, mut v) = (start.clone(), vec![Vector3::zeros(); start.len()]);
+        let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
+        let state = ProjectedState { x: &mut x, v: &mut v, constraints: &pinned, mass: &cloth.mass, h: 0.01 };
+        let report = limits.project_holding(state, &holds);
+        assert!(!report.partial && report.factorizations > 0, "{report:?}");
+        assert!(report.cg_iterations <= 4 * report.factorizations, "{report:?}");
     }
 
     #[test]
