@@ -1,11 +1,11 @@
 //! Adaptive stepping and the safety net.
 //!
 //! A step that fails — a non-finite value, a linear solve that did not
-//! converge, a strain past the blow-up bound, crossings the collision
-//! pipeline could not resolve, or, beside a moving body, a rise of the
-//! largest strain by more than the snag strain — is rolled back to the
-//! state before it and retried as two steps of half the length, down to a
-//! floor of `nominal / 2^max_halvings`. After a step succeeds the length
+//! converge, a largest strain past the blow-up bound that more than doubled
+//! in the step, crossings the collision pipeline could not resolve, or,
+//! beside a moving body, a rise of the largest strain by more than the snag
+//! strain — is rolled back to the state before it and retried as two
+//! steps of half the length, down to a floor of `nominal / 2^max_halvings`. After a step succeeds the length
 //! doubles again, back to the nominal step. When even the floor fails,
 //! advancing stops with the time, the step and the cause, and the simulator
 //! keeps the last good state: a user never sees a NaN or an explosion.
@@ -53,7 +53,8 @@ pub enum StepFailure {
         /// Iterations run.
         iterations: u32,
     },
-    /// A stretch edge lengthened past the blow-up bound.
+    /// A stretch edge lengthened past the blow-up bound, and the largest
+    /// strain more than doubled in the step.
     #[error("a stretch edge reached {:.0} % strain (blow-up bound {:.0} %)", strain * 100.0, bound * 100.0)]
     BlowUp {
         /// The largest strain, unitless.
@@ -87,8 +88,14 @@ pub enum StepFailure {
 pub struct AdaptiveSettings {
     /// Halvings of the nominal step before giving up (5: down to 1/32).
     pub max_halvings: u32,
-    /// Strain past which a step counts as a blow-up, unitless (10 = 1000 %).
+    /// Strain past which a step that multiplied the largest strain by more
+    /// than [`Self::blow_up_growth`] counts as a blow-up, unitless (10 =
+    /// 1000 %).
     pub blow_up_strain: f64,
+    /// The factor by which a blow-up multiplies the largest strain in one
+    /// step, unitless: a cloth that diverges does; one that pins wring a
+    /// little further each step past the blow-up strain does not.
+    pub blow_up_growth: f64,
     /// The most a step beside a moving body may raise the cloth's largest
     /// strain by, unitless (0.25 = 25 points of strain), while the step has
     /// been halved fewer than [`Self::snag_halvings`] times.
@@ -100,7 +107,13 @@ pub struct AdaptiveSettings {
 
 impl Default for AdaptiveSettings {
     fn default() -> Self {
-        AdaptiveSettings { max_halvings: 5, blow_up_strain: 10.0, snag_strain: 0.25, snag_halvings: 3 }
+        AdaptiveSettings {
+            max_halvings: 5,
+            blow_up_strain: 10.0,
+            blow_up_growth: 2.0,
+            snag_strain: 0.25,
+            snag_halvings: 3,
+        }
     }
 }
 
@@ -177,12 +190,14 @@ pub struct Stepper {
     nominal_s: f64,
     settings: AdaptiveSettings,
     checkpoint: Checkpoint,
+    /// The largest strain at the start of the step under way, unitless.
+    start_strain: f64,
 }
 
 impl Stepper {
     /// A stepper whose normal step is `nominal_s` seconds.
     pub fn new(nominal_s: f64, settings: AdaptiveSettings) -> Self {
-        Stepper { nominal_s, settings, checkpoint: Checkpoint::default() }
+        Stepper { nominal_s, settings, checkpoint: Checkpoint::default(), start_strain: 0.0 }
     }
 
     /// Advances `sim` by `steps` nominal steps, handing each accepted step's
@@ -198,12 +213,14 @@ impl Stepper {
         let mut units_left = u64::from(steps) * finest;
         let mut halvings = 0;
         let mut advance = Advance { shortest_step_s: self.nominal_s, ..Advance::default() };
+        self.start_strain = sim.largest_strain();
         while units_left > 0 {
             let units = finest >> halvings;
             let h = self.nominal_s / (1u64 << halvings) as f64;
             sim.checkpoint(&mut self.checkpoint);
             match self.attempt(sim, h, halvings) {
                 Ok(report) => {
+                    self.start_strain = report.max_strain;
                     on_step(&report);
                     advance.steps += 1;
                     advance.shortest_step_s = advance.shortest_step_s.min(h);
@@ -229,24 +246,21 @@ impl Stepper {
 
     /// One step of `h`, the nominal step halved `halvings` times, judged.
     fn attempt(&self, sim: &mut Simulator, h: f64, halvings: u32) -> Result<StepReport, StepFailure> {
-        // Only a moving body snags cloth; other scenes skip the sum.
-        let before = sim.has_animated_bodies().then(|| sim.largest_strain());
+        let (before, settings) = (self.start_strain, &self.settings);
         let report =
             sim.step(h).map_err(|StepError::NonFinite { particle, .. }| StepFailure::NonFinite { particle })?;
         if !report.solver.converged {
             return Err(StepFailure::Unconverged { iterations: report.solver.iterations });
         }
-        if report.max_strain > self.settings.blow_up_strain {
-            return Err(StepFailure::BlowUp { strain: report.max_strain, bound: self.settings.blow_up_strain });
+        if report.max_strain > settings.blow_up_strain && report.max_strain > settings.blow_up_growth * before {
+            return Err(StepFailure::BlowUp { strain: report.max_strain, bound: settings.blow_up_strain });
         }
         if report.collision.unresolved > 0 {
             return Err(StepFailure::Crossings { count: report.collision.unresolved });
         }
-        let bound = self.settings.snag_strain;
-        if let Some(before) = before
-            && report.max_strain - before > bound
-            && halvings < self.settings.snag_halvings
-        {
+        // Only a moving body snags cloth.
+        let bound = settings.snag_strain;
+        if sim.has_animated_bodies() && report.max_strain - before > bound && halvings < settings.snag_halvings {
             return Err(StepFailure::Snagged { before, after: report.max_strain, bound });
         }
         Ok(report)
