@@ -5,10 +5,11 @@
 //! in the step, crossings the collision pipeline could not resolve, or,
 //! beside a moving body, a rise of the largest strain by more than the snag
 //! strain — is rolled back to the state before it and retried as two
-//! steps of half the length, down to a floor of `nominal / 2^max_halvings`. After a step succeeds the length
-//! doubles again, back to the nominal step. When even the floor fails,
-//! advancing stops with the time, the step and the cause, and the simulator
-//! keeps the last good state: a user never sees a NaN or an explosion.
+//! steps of half the length, down to a floor of `nominal / 2^max_halvings`.
+//! After a step succeeds the length doubles again, back to the nominal
+//! step. When even the floor fails, advancing stops with the time, the step
+//! and the cause, and the simulator keeps the last good state: a user never
+//! sees a NaN or an explosion.
 //!
 //! A moving body snags cloth where a leg swings through a hem at 4 m/s: in
 //! one 1/60 s step it carries a few particles 7 cm while their neighbours

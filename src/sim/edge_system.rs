@@ -11,7 +11,9 @@
 //! covers only the active edges, a few hundred of the skirt's 4,392 in a
 //! typical projection: their pattern is taken from the mesh's, eliminated
 //! in the mesh's order, and analysed (simplicial) whenever the active set
-//! changes, which costs about what the numeric factor does. (A factor of
+//! changes, which costs about what the numeric factor does and allocates
+//! (faer's symbolic factor is an owned structure): the one allocation of a
+//! running projection. (A factor of
 //! every edge, the inactive ones given identity rows, cost ~1.3 ms; Jacobi
 //! preconditioning needed ~50 iterations per solve on the skirt and
 //! hundreds on long chains of active edges between pins or contacts.)
@@ -203,8 +205,6 @@ fn simplicial() -> CholeskySymbolicParams<'static> {
 struct ActivePattern {
     /// The active edges it was made for, ascending.
     edges: Vec<u32>,
-    /// Per active edge (in `edges`' order), its column.
-    column_of: Vec<u32>,
     column_start: Vec<u32>,
     row_index: Vec<u32>,
     symbolic: SymbolicCholesky<u32>,
@@ -246,8 +246,7 @@ impl ActivePattern {
         let restricted = SymbolicSparseColMatRef::new_checked(n, n, &column_start, None, &row_index);
         let symbolic = factorize_symbolic_cholesky(restricted, Side::Upper, SymmetricOrdering::Identity, simplicial())
             .map_err(|e| EdgeSystemError::Analysis(format!("{e:?}")))?;
-        let column_of = active.iter().map(|&e| column[e as usize]).collect();
-        Ok(ActivePattern { edges: active.to_vec(), column_of, column_start, row_index, symbolic })
+        Ok(ActivePattern { edges: active.to_vec(), column_start, row_index, symbolic })
     }
 
     fn pattern(&self) -> SymbolicSparseColMatRef<'_, u32> {
@@ -360,12 +359,13 @@ impl EdgeSystem {
     pub fn solve(&mut self, rhs: &[f64], out: &mut [f64]) {
         let Some((analysed, factor)) = &mut self.active else { return out.copy_from_slice(rhs) };
         self.permuted.resize(rhs.len(), 0.0);
-        for (&c, &value) in analysed.column_of.iter().zip(rhs) {
-            self.permuted[c as usize] = value * self.scale[c as usize];
+        let columns = || analysed.edges.iter().map(|&e| self.column[e as usize] as usize);
+        for (c, &value) in columns().zip(rhs) {
+            self.permuted[c] = value * self.scale[c];
         }
         factor.solve_in_place(&analysed.symbolic, &mut self.permuted);
-        for (&c, value) in analysed.column_of.iter().zip(out) {
-            *value = self.permuted[c as usize] * self.scale[c as usize];
+        for (c, value) in columns().zip(out) {
+            *value = self.permuted[c] * self.scale[c];
         }
     }
 }
