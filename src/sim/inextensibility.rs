@@ -205,7 +205,8 @@ struct Workspace {
     saved: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Whether this projection has a factor of `J W Jᵀ` to precondition with.
     factored: bool,
-    /// Particles whose holds the last round released.
+    /// Particles whose edges are to be linearised again: those whose holds
+    /// the last round released, or every held one after a held projection.
     released: Vec<u32>,
 }
 
@@ -364,8 +365,9 @@ impl StrainLimits {
         // The holds' own excess leaves out the edges they immobilised: their
         // edges are linearised again without the holds that still apply.
         let particles = Particles { x: state.x, constraints: state.constraints, mass: state.mass };
-        let held = self.holds.iter().map(|(v, _)| *v);
-        self.ws.linearised.update_at(held, &self.edges, particles);
+        self.ws.released.clear();
+        self.ws.released.extend(self.holds.iter().map(|(v, _)| *v));
+        self.ws.linearised.update_at(&self.ws.released, &self.edges, particles);
         report.excess_strain = self.ws.linearised.largest_movable_excess();
         self.holds.clear();
         report.partial = report.excess_strain > STRAIN_TOLERANCE;
@@ -525,7 +527,7 @@ impl StrainLimits {
             !away
         });
         let particles = Particles { x, constraints: held, mass };
-        ws.linearised.update_at(ws.released.iter().copied(), &self.edges, particles);
+        ws.linearised.update_at(&ws.released, &self.edges, particles);
         !ws.released.is_empty()
     }
 
@@ -573,7 +575,7 @@ impl StrainLimits {
                 state.v[v as usize] += delta / state.h;
             }
             let particles = Particles { x: state.x, constraints: state.constraints, mass: state.mass };
-            ws.linearised.update_at(ws.touched.iter().copied(), &self.edges, particles);
+            ws.linearised.update_at(&ws.touched, &self.edges, particles);
         }
         report.excess_strain = self.excess_strain(state.x);
     }
@@ -781,7 +783,7 @@ impl StrainLimits {
             state.v[v] += delta / state.h;
         }
         let particles = Particles { x: state.x, constraints, mass: state.mass };
-        ws.linearised.update_at(ws.touched.iter().copied(), &self.edges, particles);
+        ws.linearised.update_at(&ws.touched, &self.edges, particles);
     }
 
     /// One Jacobi clamping sweep into `gathered` (the position change of each

@@ -50,6 +50,11 @@ impl Incidence {
         Incidence { start: count, edges }
     }
 
+    /// How many edges particle `v` is an end of.
+    fn degree(&self, v: usize) -> usize {
+        (self.start[v + 1] - self.start[v]) as usize
+    }
+
     /// `(edge, sign)` of each edge at particle `v`: sign +1 at the first end, −1 at the second.
     pub(super) fn of(&self, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
         let range = self.start[v] as usize..self.start[v + 1] as usize;
@@ -167,9 +172,15 @@ impl LinearisedEdges {
 
     /// Linearises again, at `particles`, every edge at one of `moved` (the
     /// only particles that moved, or whose constraints changed, since the
-    /// last linearisation), and redoes the summaries of their chunks.
-    pub fn update_at(&mut self, moved: impl IntoIterator<Item = u32>, edges: &EdgeSet, particles: Particles) {
-        for v in moved {
+    /// last linearisation), and redoes the summaries of their chunks. When
+    /// they reach most of the edges, every edge is linearised again in
+    /// parallel chunks instead: the same bits, on both cores.
+    pub fn update_at(&mut self, moved: &[u32], edges: &EdgeSet, particles: Particles) {
+        let reached: usize = moved.iter().map(|&v| edges.incidence.degree(v as usize)).sum();
+        if edges.ends.len() >= PARALLEL_FROM && 2 * reached >= edges.ends.len() {
+            return self.linearise_all(edges, particles);
+        }
+        for &v in moved {
             for (e, _) in edges.incidence.of(v as usize) {
                 (self.states[e], self.movable[e], self.near[e]) = linearise_edge(e, edges, particles);
                 self.stale[e / CHUNK] = true;
@@ -279,7 +290,7 @@ mod tests {
         }
         constraints[4] = Constraint::Normal(Vector3::y());
         let particles = Particles { x: &x, constraints: &constraints, mass: &mass };
-        updated.update_at(moved, &edges, particles);
+        updated.update_at(&moved, &edges, particles);
         let mut full = LinearisedEdges::default();
         full.linearise_all(&edges, particles);
         for (a, b) in updated.states.iter().zip(&full.states) {
@@ -289,6 +300,18 @@ mod tests {
         assert_eq!(updated.near, full.near);
         assert_eq!(updated.squared_excess().to_bits(), full.squared_excess().to_bits());
         assert_eq!(updated.largest_movable_excess(), full.largest_movable_excess());
+
+        // Most particles moved: every edge is linearised again, the same bits.
+        let most: Vec<u32> = (0..x.len() as u32).filter(|v| v % 5 != 0).collect();
+        for &v in &most {
+            x[v as usize].y += 0.003 * f64::from(v % 7);
+        }
+        let particles = Particles { x: &x, constraints: &constraints, mass: &mass };
+        updated.update_at(&most, &edges, particles);
+        full.linearise_all(&edges, particles);
+        let bits = |l: &LinearisedEdges| l.states.iter().map(|s| s.violation.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&updated), bits(&full));
+        assert_eq!(updated.squared_excess().to_bits(), full.squared_excess().to_bits());
     }
 
     #[test]
