@@ -5,8 +5,10 @@
 //! Every shape is built from two exact 2D distances (a circle, a convex polygon)
 //! by extrusion along local Y or revolution about it, so each signed distance is
 //! the true Euclidean distance outside (1-Lipschitz, which the conservative
-//! advancement in [`Shape::first_time_within`] relies on) and the depth to the
-//! nearest face inside.
+//! advancement of [`Shape::first_time_within`] relies on) and the depth to the
+//! nearest face inside. A moving point's first contact with a plane or a ball
+//! is solved in closed form: a cloth resting on one glides along it, where
+//! advancement would crawl.
 
 use nalgebra::{Isometry3, Vector2, Vector3};
 
@@ -15,6 +17,10 @@ use super::motion::Placement;
 /// Iteration cap of the conservative advancement; a path still approaching at
 /// the cap is treated as touching (a grazing contact within the tolerance band).
 const ADVANCEMENT_ITERATIONS: usize = 100;
+
+/// A point this close beyond the level asked of [`Shape::first_time_within`]
+/// counts as within it, m.
+pub const TOUCH_TOLERANCE_M: f64 = 1e-9;
 
 /// A primitive solid in its local frame (axis along local Y, centred on the origin).
 #[derive(Clone, Debug, PartialEq)]
@@ -97,17 +103,29 @@ impl Shape {
     }
 
     /// First fraction `t ∈ [0, 1]` of the straight path `from → to` (local frame)
-    /// at which the point comes within `level` m of the surface, or `None` when it
-    /// stays farther. Conservative advancement: every step moves by the current
-    /// distance, so no crossing is skipped.
+    /// at which the point comes within `level` m of the surface (to within
+    /// [`TOUCH_TOLERANCE_M`]), or `None` when it stays farther. A plane or a
+    /// ball is solved in closed form; the other shapes by conservative
+    /// advancement.
     pub fn first_time_within(&self, from: &Vector3<f64>, to: &Vector3<f64>, level: f64) -> Option<f64> {
-        const TOLERANCE_M: f64 = 1e-9;
+        match *self {
+            Shape::Plane => first_time_below(from.y, to.y, level),
+            Shape::Sphere { radius } => first_time_inside_ball(from, to, radius + level),
+            _ => self.advance_within(from, to, level),
+        }
+    }
+
+    /// [`Self::first_time_within`] by conservative advancement: every step
+    /// moves by the current distance, so no crossing is skipped; a path
+    /// still approaching after [`ADVANCEMENT_ITERATIONS`] is treated as
+    /// touching (a grazing contact within the tolerance band).
+    fn advance_within(&self, from: &Vector3<f64>, to: &Vector3<f64>, level: f64) -> Option<f64> {
         let path = to - from;
         let length = path.norm();
         let mut t = 0.0;
         for _ in 0..ADVANCEMENT_ITERATIONS {
             let gap = self.signed_distance(&(from + path * t)).distance - level;
-            if gap <= TOLERANCE_M {
+            if gap <= TOUCH_TOLERANCE_M {
                 return Some(t);
             }
             if length == 0.0 {
@@ -120,6 +138,43 @@ impl Shape {
         }
         Some(t)
     }
+}
+
+/// First `t ∈ [0, 1]` at which the height `from + t (to − from)` reaches
+/// `level` m, or comes within [`TOUCH_TOLERANCE_M`] above it (then the
+/// step's end, where it is lowest).
+fn first_time_below(from: f64, to: f64, level: f64) -> Option<f64> {
+    let reach = level + TOUCH_TOLERANCE_M;
+    if from <= reach {
+        return Some(0.0);
+    }
+    (to <= reach).then(|| ((from - level) / (from - to)).min(1.0))
+}
+
+/// First `t ∈ [0, 1]` at which the point `from + t (to − from)` comes within
+/// `level` m of the origin (the smaller root of `|f + t d|² = level²`, in the
+/// form that does not cancel), or within [`TOUCH_TOLERANCE_M`] more (then
+/// its closest approach).
+fn first_time_inside_ball(from: &Vector3<f64>, to: &Vector3<f64>, level: f64) -> Option<f64> {
+    let reach = level + TOUCH_TOLERANCE_M;
+    if from.norm_squared() <= reach * reach {
+        return Some(0.0);
+    }
+    let path = to - from;
+    let (a, b) = (path.norm_squared(), from.dot(&path));
+    if b >= 0.0 {
+        return None;
+    }
+    let excess = from.norm_squared() - level * level;
+    let discriminant = b * b - a * excess;
+    if discriminant >= 0.0 {
+        let t = excess / (-b + discriminant.sqrt());
+        if t <= 1.0 {
+            return Some(t);
+        }
+    }
+    let closest = (-b / a).min(1.0);
+    ((from + path * closest).norm_squared() <= reach * reach).then_some(closest)
 }
 
 fn v2((x, y): (f64, f64)) -> Vector2<f64> {
@@ -258,6 +313,32 @@ mod tests {
             }
         }
 
+        /// The closed-form entry times of the plane and the ball are the first
+        /// times a dense sampling of the path comes within the level, and a
+        /// path that never does has none.
+        #[test]
+        fn closed_form_entry_times_match_a_sampled_path(
+            from in prop::array::uniform3(-0.6..0.6f64),
+            to in prop::array::uniform3(-0.6..0.6f64),
+        ) {
+            let (from, to) = (Vector3::from(from), Vector3::from(to));
+            let level = 0.01;
+            for shape in [Shape::Plane, Shape::Sphere { radius: 0.3 }] {
+                let gap = |t: f64| shape.signed_distance(&(from + (to - from) * t)).distance - level;
+                let samples = 20_000;
+                let first_sampled = (0..=samples).map(|k| f64::from(k) / f64::from(samples)).find(|&t| gap(t) <= 0.0);
+                match (shape.first_time_within(&from, &to, level), first_sampled) {
+                    (Some(t), Some(sampled)) => {
+                        prop_assert!(t <= sampled + 1e-12, "{shape:?}: {t} after the sampled {sampled}");
+                        prop_assert!(t >= sampled - 1.0 / f64::from(samples), "{shape:?}: {t} before {sampled}");
+                        prop_assert!(gap(t) <= 1e-8, "{shape:?}: gap {} at {t}", gap(t));
+                    }
+                    (Some(t), None) => prop_assert!(gap(t) <= 1e-8, "{shape:?}: found {t}, gap {}", gap(t)),
+                    (None, sampled) => prop_assert!(sampled.is_none(), "{shape:?}: missed {sampled:?}"),
+                }
+            }
+        }
+
         /// The normal is the gradient of the distance (checked by finite differences
         /// away from edges, where the gradient exists).
         #[test]
@@ -293,6 +374,21 @@ mod tests {
         let t = blade.first_time_within(&from, &to, 0.002).unwrap();
         assert!((t - 0.38).abs() < 1e-6, "{t}");
         assert_eq!(blade.first_time_within(&from, &Vector3::new(-0.02, 0.0, 0.0), 0.002), None);
+    }
+
+    /// A point gliding along a plane or a ball a hair above the level does
+    /// not touch it; one a hair below does from the start.
+    #[test]
+    fn a_gliding_point_touches_only_within_the_level() {
+        let glide = |height: f64| (Vector3::new(-0.1, height, 0.0), Vector3::new(0.1, height, 0.0));
+        let (from, to) = glide(0.002 + 1e-7);
+        assert_eq!(Shape::Plane.first_time_within(&from, &to, 0.002), None);
+        let (from, to) = glide(0.002 - 1e-7);
+        assert_eq!(Shape::Plane.first_time_within(&from, &to, 0.002), Some(0.0));
+        let ball = Shape::Sphere { radius: 0.3 };
+        let tangent = Vector3::new(0.05, 0.0, 0.0);
+        let top = Vector3::new(0.0, 0.3 + 0.002 + 1e-7, 0.0);
+        assert_eq!(ball.first_time_within(&top, &(top + tangent), 0.002), None);
     }
 
     #[test]

@@ -75,11 +75,10 @@ pub fn resolve_particle(
     let mut contacts = 0;
     let mut resting = None;
     for (c, collider) in colliders.iter().enumerate() {
-        if let Some(gap) = resolve_against(start, end, velocity, surface, collider, window) {
-            contacts += 1;
-            if gap <= surface.thickness * (1.0 + RESTING_SLACK) {
-                resting = Some(c as u32);
-            }
+        let outcome = resolve_against(start, end, velocity, surface, collider, window);
+        contacts += u32::from(outcome.touched);
+        if outcome.resting {
+            resting = Some(c as u32);
         }
     }
     (contacts, resting)
@@ -95,8 +94,17 @@ pub fn coulomb_friction(tangential: Vector3<f64>, normal_change: f64, mu: f64) -
     tangential * (1.0 - mu * normal_change / speed).max(0.0)
 }
 
-/// Resolves one particle against one collider; when they touch, returns the
-/// particle's final distance to the surface, m.
+/// What a collider did to a particle over a step.
+struct Outcome {
+    /// The particle came within its thickness during the step.
+    touched: bool,
+    /// It ends within the resting band ([`RESTING_SLACK`]): it starts the
+    /// next step held on the surface (and is let go there if the surface
+    /// would have to pull it).
+    resting: bool,
+}
+
+/// Resolves one particle against one collider.
 fn resolve_against(
     start: &Vector3<f64>,
     end: &mut Vector3<f64>,
@@ -104,12 +112,16 @@ fn resolve_against(
     surface: ParticleSurface,
     collider: &Collider,
     window: StepWindow,
-) -> Option<f64> {
+) -> Outcome {
+    let band = surface.thickness * (1.0 + RESTING_SLACK);
     let pose_start = collider.world_from_local(window.t0);
     let pose_end = collider.world_from_local(window.t1);
     let from = pose_start.inverse_transform_point(&(*start).into()).coords;
     let to = pose_end.inverse_transform_point(&(*end).into()).coords;
-    let t = collider.shape.first_time_within(&from, &to, surface.thickness)?;
+    let Some(t) = collider.shape.first_time_within(&from, &to, surface.thickness) else {
+        let resting = collider.shape.signed_distance(&to).distance <= band;
+        return Outcome { touched: false, resting };
+    };
     let touch = from + (to - from) * t;
     // Normal and surface velocity where and when the particle touches.
     let touch_time = window.t0 + t * window.h();
@@ -132,7 +144,7 @@ fn resolve_against(
         local_end += depth.normal * (surface.thickness - depth.distance);
     }
     *end = (pose_end * nalgebra::Point3::from(local_end)).coords;
-    Some(depth.distance.max(surface.thickness))
+    Outcome { touched: true, resting: depth.distance <= band }
 }
 
 /// A particle held to a collider's surface in the solve: its velocity along
@@ -281,6 +293,24 @@ mod tests {
         let (_, resting) = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
         assert_eq!((end, velocity), (expected, Vector3::new(1.0, 2.0, 0.0)));
         assert_eq!(resting, None, "it leaves the surface");
+    }
+
+    /// A particle gliding along the ground a little above its thickness, within
+    /// the resting band, is not touched but rests there for the next step;
+    /// one ending above the band does not.
+    #[test]
+    fn a_particle_ending_in_the_resting_band_rests_there_untouched() {
+        let start = Vector3::new(0.0, 0.00205, 0.0);
+        let mut velocity = Vector3::new(0.5, 0.0, 0.0);
+        let mut end = start + velocity * WINDOW.h();
+        let glide = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
+        assert_eq!(glide, (0, Some(0)), "resting on the ground, untouched");
+        assert_eq!(velocity, Vector3::new(0.5, 0.0, 0.0));
+
+        let mut velocity = Vector3::new(0.5, 0.03, 0.0);
+        let mut end = start + velocity * WINDOW.h();
+        let rise = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
+        assert_eq!(rise, (0, None), "0.25 mm above the band: free");
     }
 
     /// A sphere moving at 8 m/s meets a resting particle in the middle of the step
