@@ -8,7 +8,9 @@
 //! of its active edges. After such a move only the edges at those particles
 //! are linearised again ([`LinearisedEdges::update_at`]) and only their
 //! chunks' summaries are redone: a few hundred edges instead of every edge of
-//! the garment, several times per projection. Each summary is taken over its
+//! the garment, several times per projection. (A move that reaches most edges,
+//! as on a skirt pulled taut between the legs, linearises them all in parallel
+//! chunks instead.) Each summary is taken over its
 //! chunk in edge order and the summaries are combined in chunk order, as a
 //! full pass does at any thread count, so the figures do not depend on which
 //! edges were redone.
