@@ -102,6 +102,18 @@ impl Shape {
         }
     }
 
+    /// Radius of the smallest ball about the local origin that holds the
+    /// whole shape, m (infinite for the plane).
+    pub fn bounding_radius(&self) -> f64 {
+        match *self {
+            Shape::Plane => f64::INFINITY,
+            Shape::Sphere { radius } => radius,
+            Shape::Box { half_extents } => half_extents.norm(),
+            Shape::Cylinder { radius, half_height } | Shape::Cone { radius, half_height } => radius.hypot(half_height),
+            Shape::Prism { side, half_height } => (side / 3f64.sqrt()).hypot(half_height),
+        }
+    }
+
     /// First fraction `t ∈ [0, 1]` of the straight path `from → to` (local frame)
     /// at which the point comes within `level` m of the surface (to within
     /// [`TOUCH_TOLERANCE_M`]), or `None` when it stays farther. A plane or a
@@ -261,6 +273,21 @@ impl Collider {
         self.placement.velocity_at(p, t)
     }
 
+    /// Whether the straight path `start → end` (world, m) may come within
+    /// `reach` m of the collider over a step: false only for a collider that
+    /// does not move, whose bounding ball the whole path stays farther from.
+    pub fn may_come_within(&self, start: &Vector3<f64>, end: &Vector3<f64>, reach: f64) -> bool {
+        let radius = self.shape.bounding_radius();
+        if self.placement.motion.is_some() || !radius.is_finite() {
+            return true;
+        }
+        let centre = self.placement.rest_pose.translation.vector;
+        let path = end - start;
+        let along = path.norm_squared();
+        let t = if along > 0.0 { ((centre - start).dot(&path) / along).clamp(0.0, 1.0) } else { 0.0 };
+        (start + path * t - centre).norm() <= radius + reach
+    }
+
     /// Signed distance of world point `p` at time `t`, m (negative inside).
     pub fn signed_distance_at(&self, p: &Vector3<f64>, t: f64) -> f64 {
         let local = self.world_from_local(t).inverse_transform_point(&(*p).into());
@@ -344,6 +371,27 @@ mod tests {
             }
         }
 
+        /// A path the bounding-ball test rules out stays farther than the reach
+        /// from the shape all along.
+        #[test]
+        fn culled_paths_stay_out_of_reach(
+            from in prop::array::uniform3(-1.0..1.0f64),
+            to in prop::array::uniform3(-1.0..1.0f64),
+        ) {
+            let (from, to) = (Vector3::from(from), Vector3::from(to));
+            let reach = 0.05;
+            for shape in shapes().into_iter().map(|(shape, _)| shape) {
+                let placement = Placement { rest_pose: Isometry3::translation(0.1, -0.2, 0.05), motion: None };
+                let collider = Collider { name: "c".into(), shape, placement, friction: None };
+                if !collider.may_come_within(&from, &to, reach) {
+                    for k in 0..=200 {
+                        let p = from + (to - from) * (f64::from(k) / 200.0);
+                        prop_assert!(collider.signed_distance_at(&p, 0.0) > reach, "{:?} at {p}", collider.shape);
+                    }
+                }
+            }
+        }
+
         /// The normal is the gradient of the distance (checked by finite differences
         /// away from edges, where the gradient exists).
         #[test]
@@ -361,6 +409,22 @@ mod tests {
                     let n = shape.signed_distance(&p).normal;
                     prop_assert!((grad - n).norm() < 1e-3, "{shape:?} at {p}: {grad} vs {n}");
                 }
+            }
+        }
+    }
+
+    /// Points just outside each shape's bounding ball, spread over it, are
+    /// outside the shape.
+    #[test]
+    fn every_shape_lies_in_its_bounding_ball() {
+        for (shape, _) in shapes() {
+            let radius = shape.bounding_radius();
+            for k in 0..2000 {
+                let (height, turn) = (1.0 - (f64::from(k) + 0.5) / 1000.0, f64::from(k) * 2.399_963);
+                let ring = (1.0 - height * height).sqrt();
+                let direction = Vector3::new(ring * turn.cos(), height, ring * turn.sin());
+                let distance = shape.signed_distance(&(direction * radius * 1.000_001)).distance;
+                assert!(distance > 0.0, "{shape:?} reaches past {radius} towards {direction}");
             }
         }
     }

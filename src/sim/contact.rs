@@ -74,7 +74,11 @@ pub fn resolve_particle(
 ) -> (u32, Option<u32>) {
     let mut contacts = 0;
     let mut resting = None;
+    let band = surface.thickness * (1.0 + RESTING_SLACK);
     for (c, collider) in colliders.iter().enumerate() {
+        if !collider.may_come_within(start, end, band) {
+            continue;
+        }
         let outcome = resolve_against(start, end, velocity, surface, collider, window);
         contacts += u32::from(outcome.touched);
         if outcome.resting {
@@ -194,6 +198,9 @@ impl SurfaceContact {
         window: StepWindow,
     ) -> Option<Self> {
         colliders.iter().enumerate().find_map(|(index, collider)| {
+            if !collider.may_come_within(start, end, thickness) {
+                return None;
+            }
             let from = collider.world_from_local(window.t0).inverse_transform_point(&(*start).into()).coords;
             let to = collider.world_from_local(window.t1).inverse_transform_point(&(*end).into()).coords;
             let t = collider.shape.first_time_within(&from, &to, thickness)?;
