@@ -168,8 +168,8 @@ fn first_time_below(from: f64, to: f64, level: f64) -> Option<f64> {
 /// form that does not cancel), or within [`TOUCH_TOLERANCE_M`] more (then
 /// its closest approach).
 fn first_time_inside_ball(from: &Vector3<f64>, to: &Vector3<f64>, level: f64) -> Option<f64> {
-    let reach = level + TOUCH_TOLERANCE_M;
-    if from.norm_squared() <= reach * reach {
+    let (reach, start) = (level + TOUCH_TOLERANCE_M, from.norm_squared());
+    if start <= reach * reach {
         return Some(0.0);
     }
     let path = to - from;
@@ -177,7 +177,7 @@ fn first_time_inside_ball(from: &Vector3<f64>, to: &Vector3<f64>, level: f64) ->
     if b >= 0.0 {
         return None;
     }
-    let excess = from.norm_squared() - level * level;
+    let excess = start - level * level;
     let discriminant = b * b - a * excess;
     if discriminant >= 0.0 {
         let t = excess / (-b + discriminant.sqrt());

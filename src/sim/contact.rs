@@ -60,6 +60,14 @@ pub struct ParticleSurface {
     pub friction: f64,
 }
 
+impl ParticleSurface {
+    /// The distance from a collider within which a particle ends a step
+    /// resting on it: the thickness plus [`RESTING_SLACK`] of it, m.
+    fn resting_band(&self) -> f64 {
+        self.thickness * (1.0 + RESTING_SLACK)
+    }
+}
+
 /// Resolves one particle against every collider in order. `start` is the
 /// position at the start of the step; `end` and `velocity` are the solver's
 /// candidates and are corrected in place. Returns the number of contacts and
@@ -74,9 +82,8 @@ pub fn resolve_particle(
 ) -> (u32, Option<u32>) {
     let mut contacts = 0;
     let mut resting = None;
-    let band = surface.thickness * (1.0 + RESTING_SLACK);
     for (c, collider) in colliders.iter().enumerate() {
-        if !collider.may_come_within(start, end, band) {
+        if !collider.may_come_within(start, end, surface.resting_band()) {
             continue;
         }
         let outcome = resolve_against(start, end, velocity, surface, collider, window);
@@ -102,7 +109,7 @@ pub fn coulomb_friction(tangential: Vector3<f64>, normal_change: f64, mu: f64) -
 struct Outcome {
     /// The particle came within its thickness during the step.
     touched: bool,
-    /// It ends within the resting band ([`RESTING_SLACK`]): it starts the
+    /// It ends within the resting band ([`ParticleSurface::resting_band`]): it starts the
     /// next step held on the surface (and is let go there if the surface
     /// would have to pull it).
     resting: bool,
@@ -117,7 +124,7 @@ fn resolve_against(
     collider: &Collider,
     window: StepWindow,
 ) -> Outcome {
-    let band = surface.thickness * (1.0 + RESTING_SLACK);
+    let band = surface.resting_band();
     let pose_start = collider.world_from_local(window.t0);
     let pose_end = collider.world_from_local(window.t1);
     let from = pose_start.inverse_transform_point(&(*start).into()).coords;

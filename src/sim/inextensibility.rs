@@ -207,7 +207,7 @@ struct Workspace {
     factored: bool,
     /// Particles whose edges are to be linearised again: those whose holds
     /// the last round released, or every held one after a held projection.
-    released: Vec<u32>,
+    relinearise: Vec<u32>,
 }
 
 /// The direct solver of `J W Jᵀ`, made the first time a projection needs it.
@@ -365,9 +365,9 @@ impl StrainLimits {
         // The holds' own excess leaves out the edges they immobilised: their
         // edges are linearised again without the holds that still apply.
         let particles = Particles { x: state.x, constraints: state.constraints, mass: state.mass };
-        self.ws.released.clear();
-        self.ws.released.extend(self.holds.iter().map(|(v, _)| *v));
-        self.ws.linearised.update_at(&self.ws.released, &self.edges, particles);
+        self.ws.relinearise.clear();
+        self.ws.relinearise.extend(self.holds.iter().map(|(v, _)| *v));
+        self.ws.linearised.update_at(&self.ws.relinearise, &self.edges, particles);
         report.excess_strain = self.ws.linearised.largest_movable_excess();
         self.holds.clear();
         report.partial = report.excess_strain > STRAIN_TOLERANCE;
@@ -516,8 +516,8 @@ impl StrainLimits {
         mass: &[f64],
     ) -> bool {
         let ws = &mut self.ws;
-        ws.released.clear();
-        let (is_touched, gathered, released) = (&ws.is_touched, &ws.gathered, &mut ws.released);
+        ws.relinearise.clear();
+        let (is_touched, gathered, released) = (&ws.is_touched, &ws.gathered, &mut ws.relinearise);
         self.holds.retain(|&(v, n)| {
             let away = is_touched[v as usize] && n.dot(&gathered[v as usize]) < 0.0;
             if away {
@@ -527,8 +527,8 @@ impl StrainLimits {
             !away
         });
         let particles = Particles { x, constraints: held, mass };
-        ws.linearised.update_at(&ws.released, &self.edges, particles);
-        !ws.released.is_empty()
+        ws.linearised.update_at(&ws.relinearise, &self.edges, particles);
+        !ws.relinearise.is_empty()
     }
 
     /// Takes out of the active set every edge within its limit whose
