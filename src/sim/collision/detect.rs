@@ -260,7 +260,7 @@ impl CollisionPipeline {
 
         let clock = Instant::now();
         let chunk_count = ws.jobs.len().div_ceil(JOBS_PER_CHUNK);
-        ws.chunks.resize_with(chunk_count.max(ws.chunks.len()), || (Vec::new(), 0, 0));
+        ws.chunks.resize_with(chunk_count.max(ws.chunks.len()), Default::default);
         let narrow = Narrow {
             pipeline_triangles: &self.triangles,
             ownership: &self.ownership,
@@ -275,23 +275,24 @@ impl CollisionPipeline {
             obstacle_feature_box: &ws.obstacle_feature_box,
             kept: &ws.kept,
             detection,
-            counting: report.passes == 0 && detection == Detection::Proximity,
         };
+        // Only the step's first detection is counted.
+        let counting = report.passes == 0 && detection == Detection::Proximity;
         ws.jobs.par_chunks(JOBS_PER_CHUNK).zip(ws.chunks[..chunk_count].par_iter_mut()).for_each(
-            |(jobs, (found, tests, without))| {
+            |(jobs, (found, count))| {
                 found.clear();
-                (*tests, *without) = (0, 0);
+                *count = TestCount::default();
                 for job in jobs {
-                    narrow.run(*job, found, tests, without);
+                    narrow.run(*job, found, count);
                 }
             },
         );
         ws.contacts.clear();
-        for (found, tests, without) in &ws.chunks[..chunk_count] {
+        for (found, count) in &ws.chunks[..chunk_count] {
             ws.contacts.extend_from_slice(found);
-            if narrow.counting {
-                report.tests += tests;
-                report.tests_without_ownership += without;
+            if counting {
+                report.tests += count.run;
+                report.tests_without_ownership += count.without_ownership;
             }
         }
         report.narrow += clock.elapsed();
@@ -493,9 +494,25 @@ struct Narrow<'a> {
     obstacle_feature_box: &'a [FeatureBoxes],
     kept: &'a [Contact],
     detection: Detection,
-    /// Whether to count the tests without ownership too (first detection of
-    /// a step only: the count costs as much as a cheap test).
-    counting: bool,
+}
+
+/// Elementary tests of a detection that passed the box test.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct TestCount {
+    /// Run, each feature tested from its owner only.
+    run: u64,
+    /// That would have run with every feature tested from each triangle
+    /// holding it (see [`super::features`]).
+    without_ownership: u64,
+}
+
+impl TestCount {
+    /// One test run, which `sharing` triangle pairs would have run without
+    /// ownership.
+    fn add(&mut self, sharing: u32) {
+        self.run += 1;
+        self.without_ownership += u64::from(sharing);
+    }
 }
 
 impl Narrow<'_> {
@@ -536,14 +553,15 @@ impl Narrow<'_> {
     }
 
     /// Vertex `p` (box `p_box`) against triangle `tri` (point indices, box
-    /// `tri_box`): culled by box and by the start distance, else tested.
+    /// `tri_box`): culled by box and by the start distance, else tested and
+    /// counted as `sharing` tests without ownership.
     fn vertex_triangle(
         &self,
         (p, p_box): (u32, &Box3),
-        tri: [u32; 3],
-        tri_box: &Box3,
+        (tri, tri_box): ([u32; 3], &Box3),
+        sharing: u32,
         found: &mut Vec<Contact>,
-        tests: &mut u64,
+        count: &mut TestCount,
     ) {
         if !p_box.overlaps(tri_box) || tri.contains(&p) {
             return;
@@ -551,7 +569,7 @@ impl Narrow<'_> {
         if self.kinematic(p) && tri.iter().all(|&v| self.kinematic(v)) {
             return;
         }
-        *tests += 1;
+        count.add(sharing);
         let thickness = self.thickness(&[p, tri[0], tri[1], tri[2]]);
         let touching = self.detection.reach(thickness);
         let (point, [pa, pb, pc]) = (self.path(p), tri.map(|v| self.path(v)));
@@ -566,15 +584,15 @@ impl Narrow<'_> {
     }
 
     /// Edge `e1` (box `box1`) against edge `e2` (box `box2`): culled by box
-    /// and distance, else tested.
+    /// and distance, else tested and counted as `sharing` tests without
+    /// ownership.
     fn edge_edge(
         &self,
-        e1: [u32; 2],
-        box1: &Box3,
-        e2: [u32; 2],
-        box2: &Box3,
+        (e1, box1): ([u32; 2], &Box3),
+        (e2, box2): ([u32; 2], &Box3),
+        sharing: u32,
         found: &mut Vec<Contact>,
-        tests: &mut u64,
+        count: &mut TestCount,
     ) {
         if !box1.overlaps(box2) || e1.iter().any(|v| e2.contains(v)) {
             return;
@@ -583,7 +601,7 @@ impl Narrow<'_> {
         if nodes.iter().all(|&v| self.kinematic(v)) {
             return;
         }
-        *tests += 1;
+        count.add(sharing);
         let thickness = self.thickness(&nodes);
         let touching = self.detection.reach(thickness);
         let [pa, pb, pc, pd] = nodes.map(|v| self.path(v));
@@ -605,30 +623,9 @@ impl Narrow<'_> {
         self.node_box[e[0] as usize].union(&self.node_box[e[1] as usize])
     }
 
-    /// Feature pairs of two triangles passing the box test when every vertex
-    /// and edge of both is tested (no representative triangles): each
-    /// triangle's points against the other's box, and every edge pair.
-    /// Counted without branches (`&`, not `&&`), as a count needs no early
-    /// exit.
-    fn feature_tests_without_ownership(&self, first: Side, second: Side) -> u64 {
-        let mut count = 0;
-        for (a, b) in [(&first, &second), (&second, &first)] {
-            for (p, p_box) in a.points.iter().zip(&a.boxes.corners) {
-                count += u64::from(p_box.overlaps(b.whole) & !b.points.contains(p));
-            }
-        }
-        for (k1, box1) in first.boxes.edges.iter().enumerate() {
-            for (k2, box2) in second.boxes.edges.iter().enumerate() {
-                let (e1, e2) = (edge(first.points, k1), edge(second.points, k2));
-                count += u64::from(box1.overlaps(box2) & !e1.iter().any(|v| e2.contains(v)));
-            }
-        }
-        count
-    }
-
-    /// Runs one job, appending contacts; counts the feature pairs that pass
-    /// the box test, with representative triangles and without.
-    fn run(&self, job: Job, found: &mut Vec<Contact>, tests: &mut u64, without: &mut u64) {
+    /// Runs one job, appending contacts and counting the feature pairs that
+    /// pass the box test, with representative triangles and without.
+    fn run(&self, job: Job, found: &mut Vec<Contact>, count: &mut TestCount) {
         let cloth = |t: u32| self.pipeline_triangles[t as usize];
         let offset = self.cloth_count as u32;
         match job {
@@ -642,29 +639,28 @@ impl Narrow<'_> {
                 } else {
                     (self.cloth_side(t2), self.ownership)
                 };
-                if self.counting {
-                    *without += self.feature_tests_without_ownership(first, second);
-                }
                 for k in self.ownership.vertices(t1) {
                     let corner = (first.points[k], &first.boxes.corners[k]);
-                    self.vertex_triangle(corner, second.points, second.whole, found, tests);
+                    let sharing = self.ownership.vertex_sharing(t1, k);
+                    self.vertex_triangle(corner, (second.points, second.whole), sharing, found, count);
                 }
                 for k in owner2.vertices(t2) {
                     let corner = (second.points[k], &second.boxes.corners[k]);
-                    self.vertex_triangle(corner, first.points, first.whole, found, tests);
+                    let sharing = owner2.vertex_sharing(t2, k);
+                    self.vertex_triangle(corner, (first.points, first.whole), sharing, found, count);
                 }
                 for k1 in self.ownership.edges(t1) {
+                    let e1 = (edge(first.points, k1), &first.boxes.edges[k1]);
                     for k2 in owner2.edges(t2) {
-                        let (e1, e2) = (edge(first.points, k1), edge(second.points, k2));
-                        self.edge_edge(e1, &first.boxes.edges[k1], e2, &second.boxes.edges[k2], found, tests);
+                        let e2 = (edge(second.points, k2), &second.boxes.edges[k2]);
+                        let sharing = self.ownership.edge_sharing(t1, k1) * owner2.edge_sharing(t2, k2);
+                        self.edge_edge(e1, e2, sharing, found, count);
                     }
                 }
             }
             Job::Vertex(t, v) => {
                 let (v, tri_box) = (v + offset, &self.triangle_box[t as usize]);
-                let v_box = &self.node_box[v as usize];
-                *without += u64::from(self.counting && v_box.overlaps(tri_box));
-                self.vertex_triangle((v, v_box), cloth(t), tri_box, found, tests);
+                self.vertex_triangle((v, &self.node_box[v as usize]), (cloth(t), tri_box), 1, found, count);
             }
             Job::Again(k) => {
                 let contact = &self.kept[k as usize];
@@ -673,11 +669,12 @@ impl Narrow<'_> {
                     ContactKind::VertexTriangle => {
                         let tri_box = self.node_box[b as usize].union(&self.node_box[c as usize]);
                         let tri_box = tri_box.union(&self.node_box[d as usize]);
-                        self.vertex_triangle((a, &self.node_box[a as usize]), [b, c, d], &tri_box, found, tests);
+                        let vertex = (a, &self.node_box[a as usize]);
+                        self.vertex_triangle(vertex, ([b, c, d], &tri_box), 1, found, count);
                     }
                     ContactKind::EdgeEdge => {
                         let (box1, box2) = (self.edge_box_of([a, b]), self.edge_box_of([c, d]));
-                        self.edge_edge([a, b], &box1, [c, d], &box2, found, tests);
+                        self.edge_edge(([a, b], &box1), ([c, d], &box2), 1, found, count);
                     }
                 }
             }
@@ -685,11 +682,9 @@ impl Narrow<'_> {
                 let obstacle = self.obstacles.feature_edges[e as usize].map(|v| v + offset);
                 let obstacle_box = self.edge_box_of(obstacle);
                 let edges = &self.feature_box[t as usize].edges;
-                if self.counting {
-                    *without += edges.iter().filter(|b| b.overlaps(&obstacle_box)).count() as u64;
-                }
                 for k in self.ownership.edges(t as usize) {
-                    self.edge_edge(edge(cloth(t), k), &edges[k], obstacle, &obstacle_box, found, tests);
+                    let sharing = self.ownership.edge_sharing(t as usize, k);
+                    self.edge_edge((edge(cloth(t), k), &edges[k]), (obstacle, &obstacle_box), sharing, found, count);
                 }
             }
         }

@@ -254,7 +254,7 @@ struct Workspace {
     mesh_pairs: Vec<(u32, u32)>,
     hits: Vec<u32>,
     jobs: Vec<Job>,
-    chunks: Vec<(Vec<Contact>, u64, u64)>,
+    chunks: Vec<(Vec<Contact>, detect::TestCount)>,
     contacts: Vec<Contact>,
     /// Contacts of the last detection whose points have not moved since.
     kept: Vec<Contact>,
