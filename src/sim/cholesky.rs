@@ -239,17 +239,21 @@ impl LowerTriangle {
 }
 
 /// Fills `filtered` (one block per stored slot of `pattern`, slot `s` in row
-/// `slot_rows[s]`) with the blocks of `S A S + c (I − S)`.
+/// `slot_rows[s]`) with the blocks of `S A S + c (I − S)` the factor keeps;
+/// dropped slots are left as they are (the factor does not read them).
 fn filter_blocks(
     pattern: &BlockPattern,
     slot_rows: &[u32],
+    kept: &[bool],
     a: &[Matrix3<f64>],
     constraints: &[Constraint],
     filtered: &mut [Matrix3<f64>],
 ) {
     parallel::for_each_indexed(filtered, |s, block| {
-        let (j, i) = (slot_rows[s] as usize, pattern.column(s));
-        *block = filtered_block(&constraints[j], &a[s], &constraints[i], i == j);
+        if kept[s] {
+            let (j, i) = (slot_rows[s] as usize, pattern.column(s));
+            *block = filtered_block(&constraints[j], &a[s], &constraints[i], i == j);
+        }
     });
 }
 
@@ -365,28 +369,30 @@ impl DroppedByParticle {
     }
 }
 
-/// Adds, for each dropped block `D`, `‖D‖₂ I` to the two diagonal blocks it
-/// couples (its slot is left as it is: the factor does not read it). `extra`
-/// is scratch space, one value per particle.
+/// Adds, for each dropped block `D` of `a` (filtered by `constraints`),
+/// `‖D‖₂ I` to the two diagonal blocks of `filtered` it couples. `extra` is
+/// scratch space, one value per particle.
 fn compensate_dropped(
     pattern: &BlockPattern,
     slot_rows: &[u32],
     dropped: &DroppedByParticle,
+    (a, constraints): (&[Matrix3<f64>], &[Constraint]),
     extra: &mut [f64],
     filtered: &mut [Matrix3<f64>],
 ) {
-    {
-        let filtered = &*filtered;
-        parallel::for_each_indexed(extra, |i, sum| {
-            *sum = dropped.of(i).iter().map(|&s| spectral_norm_bound(&filtered[s as usize])).sum();
-        });
-    }
-    parallel::for_each_indexed(filtered, |s, block| {
-        let row = slot_rows[s] as usize;
-        if pattern.column(s) == row {
-            *block += Matrix3::identity() * extra[row];
-        }
+    parallel::for_each_indexed(extra, |i, sum| {
+        *sum = dropped
+            .of(i)
+            .iter()
+            .map(|&s| {
+                let (row, column) = (slot_rows[s as usize] as usize, pattern.column(s as usize));
+                spectral_norm_bound(&filtered_block(&constraints[row], &a[s as usize], &constraints[column], false))
+            })
+            .sum();
     });
+    for (i, extra) in extra.iter().enumerate() {
+        filtered[pattern.diagonal(i)] += Matrix3::identity() * *extra;
+    }
 }
 
 /// A floating-point type a factor can be kept in.
@@ -460,6 +466,8 @@ pub struct LaggedCholesky {
     lower: LowerTriangle,
     /// The row of each stored slot of the pattern.
     slot_rows: Arc<[u32]>,
+    /// Whether the factor keeps each stored slot of the pattern.
+    kept: Arc<[bool]>,
     /// Blocks of the system the factor leaves out, compensated on the diagonal.
     dropped: Arc<DroppedByParticle>,
     /// Each particle's compensation, scratch.
@@ -493,6 +501,7 @@ impl LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
             slot_rows: slot_rows(pattern).into(),
             dropped: Arc::new(DroppedByParticle::new(pattern.rows(), &dropped_blocks(pattern, &kept))),
+            kept: kept.into(),
             compensation: vec![0.0; pattern.rows()],
             lower,
             tree: Arc::new(tree),
@@ -538,8 +547,9 @@ impl LaggedCholesky {
         constraints: &[Constraint],
     ) -> Result<(), CholeskyError> {
         self.current = false;
-        filter_blocks(pattern, &self.slot_rows, a, constraints, &mut self.filtered);
-        compensate_dropped(pattern, &self.slot_rows, &self.dropped, &mut self.compensation, &mut self.filtered);
+        filter_blocks(pattern, &self.slot_rows, &self.kept, a, constraints, &mut self.filtered);
+        let system = (a, constraints);
+        compensate_dropped(pattern, &self.slot_rows, &self.dropped, system, &mut self.compensation, &mut self.filtered);
         let (tree, lower, filtered) = (&*self.tree, &self.lower, &self.filtered);
         if let Factor::Single(single) = &mut self.numeric {
             if single.factor(tree, lower, filtered).is_ok() {
