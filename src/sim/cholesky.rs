@@ -238,25 +238,6 @@ impl LowerTriangle {
     }
 }
 
-/// Fills `filtered` (one block per stored slot of `pattern`, slot `s` in row
-/// `slot_rows[s]`) with the blocks of `S A S + c (I − S)` the factor keeps;
-/// dropped slots are left as they are (the factor does not read them).
-fn filter_blocks(
-    pattern: &BlockPattern,
-    slot_rows: &[u32],
-    kept: &[bool],
-    a: &[Matrix3<f64>],
-    constraints: &[Constraint],
-    filtered: &mut [Matrix3<f64>],
-) {
-    parallel::for_each_indexed(filtered, |s, block| {
-        if kept[s] {
-            let (j, i) = (slot_rows[s] as usize, pattern.column(s));
-            *block = filtered_block(&constraints[j], &a[s], &constraints[i], i == j);
-        }
-    });
-}
-
 /// Block `a` of row constraint `row` and column constraint `column`, filtered:
 /// `S_row a S_column`, plus `(I − S_row) c` on the `diagonal`.
 fn filtered_block(row: &Constraint, a: &Matrix3<f64>, column: &Constraint, diagonal: bool) -> Matrix3<f64> {
@@ -369,32 +350,6 @@ impl DroppedByParticle {
     }
 }
 
-/// Adds, for each dropped block `D` of `a` (filtered by `constraints`),
-/// `‖D‖₂ I` to the two diagonal blocks of `filtered` it couples. `extra` is
-/// scratch space, one value per particle.
-fn compensate_dropped(
-    pattern: &BlockPattern,
-    slot_rows: &[u32],
-    dropped: &DroppedByParticle,
-    (a, constraints): (&[Matrix3<f64>], &[Constraint]),
-    extra: &mut [f64],
-    filtered: &mut [Matrix3<f64>],
-) {
-    parallel::for_each_indexed(extra, |i, sum| {
-        *sum = dropped
-            .of(i)
-            .iter()
-            .map(|&s| {
-                let (row, column) = (slot_rows[s as usize] as usize, pattern.column(s as usize));
-                spectral_norm_bound(&filtered_block(&constraints[row], &a[s as usize], &constraints[column], false))
-            })
-            .sum();
-    });
-    for (i, extra) in extra.iter().enumerate() {
-        filtered[pattern.diagonal(i)] += Matrix3::identity() * *extra;
-    }
-}
-
 /// A floating-point type a factor can be kept in.
 trait Precision: Scalar {
     fn from_f64(x: f64) -> Self;
@@ -472,7 +427,8 @@ pub struct LaggedCholesky {
     dropped: Arc<DroppedByParticle>,
     /// Each particle's compensation, scratch.
     compensation: Vec<f64>,
-    /// The filtered blocks of the last factor, one per stored slot.
+    /// The filtered blocks of the last factor, one per stored slot (the
+    /// dropped ones zero).
     filtered: Vec<Matrix3<f64>>,
     tree: Arc<SupernodalTree>,
     numeric: Factor,
@@ -547,9 +503,8 @@ impl LaggedCholesky {
         constraints: &[Constraint],
     ) -> Result<(), CholeskyError> {
         self.current = false;
-        filter_blocks(pattern, &self.slot_rows, &self.kept, a, constraints, &mut self.filtered);
-        let system = (a, constraints);
-        compensate_dropped(pattern, &self.slot_rows, &self.dropped, system, &mut self.compensation, &mut self.filtered);
+        self.filter_blocks(pattern, a, constraints);
+        self.compensate_dropped(pattern, a, constraints);
         let (tree, lower, filtered) = (&*self.tree, &self.lower, &self.filtered);
         if let Factor::Single(single) = &mut self.numeric {
             if single.factor(tree, lower, filtered).is_ok() {
@@ -563,6 +518,38 @@ impl LaggedCholesky {
         }
         self.current = true;
         Ok(())
+    }
+
+    /// Fills `filtered` with the blocks of `S A S + c (I − S)` the factor
+    /// keeps, for block values `a` on `pattern`; the dropped slots stay zero
+    /// (the factor does not read them).
+    fn filter_blocks(&mut self, pattern: &BlockPattern, a: &[Matrix3<f64>], constraints: &[Constraint]) {
+        let (slot_rows, kept) = (&self.slot_rows, &self.kept);
+        parallel::for_each_indexed(&mut self.filtered, |s, block| {
+            if kept[s] {
+                let (j, i) = (slot_rows[s] as usize, pattern.column(s));
+                *block = filtered_block(&constraints[j], &a[s], &constraints[i], i == j);
+            }
+        });
+    }
+
+    /// Adds, for each dropped block `D` of `a` (filtered by `constraints`),
+    /// `‖D‖₂ I` to the two diagonal blocks of `filtered` it couples.
+    fn compensate_dropped(&mut self, pattern: &BlockPattern, a: &[Matrix3<f64>], constraints: &[Constraint]) {
+        let (slot_rows, dropped) = (&self.slot_rows, &self.dropped);
+        parallel::for_each_indexed(&mut self.compensation, |i, sum| {
+            *sum = dropped
+                .of(i)
+                .iter()
+                .map(|&s| {
+                    let (row, column) = (slot_rows[s as usize] as usize, pattern.column(s as usize));
+                    spectral_norm_bound(&filtered_block(&constraints[row], &a[s as usize], &constraints[column], false))
+                })
+                .sum();
+        });
+        for (i, extra) in self.compensation.iter().enumerate() {
+            self.filtered[pattern.diagonal(i)] += Matrix3::identity() * *extra;
+        }
     }
 
     /// Notes the iterations a solve to `tolerance` with a fresh factor took:
@@ -601,7 +588,8 @@ impl LaggedCholesky {
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FactorState {
     /// The filtered, compensated blocks of the last factor (row-major 3×3),
-    /// one per stored slot of the pattern.
+    /// one per stored slot of the pattern (the factor reads only the ones it
+    /// keeps).
     pub filtered: Vec<[f64; 9]>,
     /// Whether factors are built in double precision.
     pub double_precision: bool,
