@@ -316,18 +316,19 @@ fn spectral_norm_bound(d: &Matrix3<f64>) -> f64 {
     (columns * rows).sqrt()
 }
 
-/// Each particle's dropped blocks, as slots, in compressed rows: a block
-/// appears under both particles it couples.
+/// The blocks the factor drops, and each particle's among them in
+/// compressed rows (a block appears under both particles it couples).
 #[derive(Clone, Debug)]
-struct DroppedByParticle {
+struct DroppedBlocks {
+    blocks: Vec<DroppedBlock>,
     start: Vec<u32>,
-    slots: Vec<u32>,
+    of_particle: Vec<u32>,
 }
 
-impl DroppedByParticle {
-    fn new(particles: usize, dropped: &[DroppedBlock]) -> Self {
+impl DroppedBlocks {
+    fn new(particles: usize, blocks: Vec<DroppedBlock>) -> Self {
         let mut start = vec![0u32; particles + 1];
-        for block in dropped {
+        for block in &blocks {
             start[block.row as usize + 1] += 1;
             start[block.column as usize + 1] += 1;
         }
@@ -335,18 +336,19 @@ impl DroppedByParticle {
             start[i + 1] += start[i];
         }
         let mut next = start.clone();
-        let mut slots = vec![0u32; dropped.len() * 2];
-        for block in dropped {
+        let mut of_particle = vec![0u32; blocks.len() * 2];
+        for (b, block) in blocks.iter().enumerate() {
             for particle in [block.row, block.column] {
-                slots[next[particle as usize] as usize] = block.slot;
+                of_particle[next[particle as usize] as usize] = b as u32;
                 next[particle as usize] += 1;
             }
         }
-        DroppedByParticle { start, slots }
+        DroppedBlocks { blocks, start, of_particle }
     }
 
+    /// The indices in `blocks` of the dropped blocks of `particle`.
     fn of(&self, particle: usize) -> &[u32] {
-        &self.slots[self.start[particle] as usize..self.start[particle + 1] as usize]
+        &self.of_particle[self.start[particle] as usize..self.start[particle + 1] as usize]
     }
 }
 
@@ -424,7 +426,9 @@ pub struct LaggedCholesky {
     /// Whether the factor keeps each stored slot of the pattern.
     kept: Arc<[bool]>,
     /// Blocks of the system the factor leaves out, compensated on the diagonal.
-    dropped: Arc<DroppedByParticle>,
+    dropped: Arc<DroppedBlocks>,
+    /// The norm bound of each dropped block, scratch.
+    bounds: Vec<f64>,
     /// Each particle's compensation, scratch.
     compensation: Vec<f64>,
     /// The filtered blocks of the last factor, one per stored slot (the
@@ -449,6 +453,7 @@ impl LaggedCholesky {
         positions: &[Vector3<f64>],
     ) -> Result<Self, CholeskyError> {
         let kept = kept_slots(pattern, couplings);
+        let dropped = DroppedBlocks::new(pattern.rows(), dropped_blocks(pattern, &kept));
         let (order, position) = dissection_order(pattern.rows(), couplings, positions);
         let lower = LowerTriangle::new(pattern, &kept).reordered(&order, &position);
         let tree = lower.tree()?;
@@ -456,7 +461,8 @@ impl LaggedCholesky {
         Ok(LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
             slot_rows: slot_rows(pattern).into(),
-            dropped: Arc::new(DroppedByParticle::new(pattern.rows(), &dropped_blocks(pattern, &kept))),
+            bounds: vec![0.0; dropped.blocks.len()],
+            dropped: Arc::new(dropped),
             kept: kept.into(),
             compensation: vec![0.0; pattern.rows()],
             lower,
@@ -536,16 +542,15 @@ impl LaggedCholesky {
     /// Adds, for each dropped block `D` of `a` (filtered by `constraints`),
     /// `‖D‖₂ I` to the two diagonal blocks of `filtered` it couples.
     fn compensate_dropped(&mut self, pattern: &BlockPattern, a: &[Matrix3<f64>], constraints: &[Constraint]) {
-        let (slot_rows, dropped) = (&self.slot_rows, &self.dropped);
+        let dropped = &self.dropped;
+        parallel::for_each_indexed(&mut self.bounds, |b, bound| {
+            let block = dropped.blocks[b];
+            let (row, column) = (&constraints[block.row as usize], &constraints[block.column as usize]);
+            *bound = spectral_norm_bound(&filtered_block(row, &a[block.slot as usize], column, false));
+        });
+        let bounds = &self.bounds;
         parallel::for_each_indexed(&mut self.compensation, |i, sum| {
-            *sum = dropped
-                .of(i)
-                .iter()
-                .map(|&s| {
-                    let (row, column) = (slot_rows[s as usize] as usize, pattern.column(s as usize));
-                    spectral_norm_bound(&filtered_block(&constraints[row], &a[s as usize], &constraints[column], false))
-                })
-                .sum();
+            *sum = dropped.of(i).iter().map(|&b| bounds[b as usize]).sum();
         });
         for (i, extra) in self.compensation.iter().enumerate() {
             self.filtered[pattern.diagonal(i)] += Matrix3::identity() * *extra;
