@@ -2,7 +2,8 @@
 //! (64 × 64 vertices) settled on its sphere after 0.5 s, and on the demo body:
 //!
 //! - force and Jacobian assembly (springs, then the block matrix and right-hand side),
-//! - one preconditioned conjugate-gradient iteration, and the Cholesky factor it uses,
+//! - one preconditioned conjugate-gradient iteration, and the Cholesky factor it uses
+//!   and one application of it (its two triangular solves),
 //! - the swept-box hierarchy's refit and its self-collision broad phase,
 //! - continuous collision detection of one vertex-triangle and one edge-edge pair,
 //! - skinning the walking body at one time.
@@ -85,6 +86,10 @@ fn solver(c: &mut Criterion) {
     });
 
     cholesky.refactor(&layout.pattern, &buffers.matrix, &constraints).expect("the system is positive definite");
+    let mut z = vec![Vector3::zeros(); n];
+    c.bench_function("cholesky: one application, both triangular solves (drape_sphere)", |b| {
+        b.iter(|| cholesky.apply(black_box(&buffers.rhs), &mut z))
+    });
     let system = FilteredSystem {
         pattern: &layout.pattern,
         a: &buffers.matrix,
