@@ -45,6 +45,36 @@ pub fn sum(len: usize, partials: &mut Vec<f64>, term: impl Fn(usize) -> f64 + Sy
     partials.iter().sum()
 }
 
+/// Sets every element of `v` from its index, then returns `Σᵢ term(i, vᵢ)`
+/// of the values set: one parallel pass over the chunks of [`sum`], each
+/// chunk set and then summed in order, so the same rounding as setting with
+/// [`for_each_indexed`] and summing with [`sum`].
+pub fn set_and_sum<T: Send + Sync>(
+    v: &mut [T],
+    partials: &mut Vec<f64>,
+    set: impl Fn(usize, &mut T) + Sync,
+    term: impl Fn(usize, &T) -> f64 + Sync,
+) -> f64 {
+    partials.resize(chunk_count(v.len()), 0.0);
+    let chunk_sum = |c: usize, chunk: &mut [T]| -> f64 {
+        for (k, e) in chunk.iter_mut().enumerate() {
+            set(c * CHUNK + k, e);
+        }
+        chunk.iter().enumerate().map(|(k, e)| term(c * CHUNK + k, e)).sum()
+    };
+    if v.len() < PARALLEL_FROM {
+        for (c, (chunk, slot)) in v.chunks_mut(CHUNK).zip(partials.iter_mut()).enumerate() {
+            *slot = chunk_sum(c, chunk);
+        }
+    } else {
+        v.par_chunks_mut(CHUNK)
+            .zip(partials.par_iter_mut())
+            .enumerate()
+            .for_each(|(c, (chunk, slot))| *slot = chunk_sum(c, chunk));
+    }
+    partials.iter().sum()
+}
+
 /// `maxᵢ term(i)` over `0..len` (0 when empty). Exact in any order.
 pub fn max(len: usize, term: impl Fn(usize) -> f64 + Sync + Send) -> f64 {
     (0..len).into_par_iter().with_min_len(CHUNK).map(term).reduce(|| 0.0, f64::max)
@@ -64,6 +94,27 @@ mod tests {
         assert_eq!(run(1).to_bits(), run(2).to_bits());
         let exact: f64 = values.iter().map(|v| v * v).sum();
         assert!((run(2) - exact).abs() < 1e-9 * exact);
+    }
+
+    #[test]
+    fn set_and_sum_sets_like_for_each_and_sums_like_sum_on_any_thread_count() {
+        for len in [100, 10_000] {
+            let set = |i: usize, e: &mut f64| *e = ((i * 7919) % 1000) as f64 * 1e-3 + 1e-9 * i as f64;
+            let run = |threads| {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let mut values = vec![0.0; len];
+                let total = pool.install(|| set_and_sum(&mut values, &mut Vec::new(), set, |_, v| v * v));
+                (values, total)
+            };
+            let mut expected = vec![0.0; len];
+            for_each_indexed(&mut expected, set);
+            let expected_total = sum(len, &mut Vec::new(), |i| expected[i] * expected[i]);
+            for threads in [1, 2] {
+                let (values, total) = run(threads);
+                assert_eq!(values, expected);
+                assert_eq!(total.to_bits(), expected_total.to_bits());
+            }
+        }
     }
 
     #[test]

@@ -288,80 +288,100 @@ pub fn solve(
     });
     let filter = |i: usize, v: Vector3<f64>| constraints[i].filter(v);
     let PcgWorkspace { residual, direction, product, preconditioned, inverse_diagonal, partials } = ws;
-    let norm = |v: &[Vector3<f64>], partials: &mut Vec<f64>| {
-        parallel::sum(n, partials, |i| {
-            let vi = filter(i, v[i]);
-            vi.dot(&(inverse_diagonal[i] * vi))
-        })
+    // The squared norm of a filtered vector `v`, weighted by the inverse
+    // diagonal: `Σᵢ norm_term(i, vᵢ)`.
+    let norm_term = |i: usize, v: &Vector3<f64>| {
+        let vi = filter(i, *v);
+        vi.dot(&(inverse_diagonal[i] * vi))
     };
+    let norm = |v: &[Vector3<f64>], partials: &mut Vec<f64>| parallel::sum(n, partials, |i| norm_term(i, &v[i]));
     let reference = norm(b, partials).max(norm(typical, partials));
     let threshold = settings.tolerance * settings.tolerance * reference;
 
     // Start from the given guess or from its prescribed part alone, whichever
     // leaves the smaller residual: the last step's answer is a good guess for a
     // cloth at rest and a poor one for a swinging cloth.
-    pattern.multiply(a, x, product);
-    par_each(residual, |i, r| *r = filter(i, b[i] - product[i]));
-    let mut measure = norm(residual, partials);
+    let residual_of = |guess: &[Vector3<f64>], i: usize, r: &mut Vector3<f64>| {
+        *r = filter(i, b[i] - pattern.row_product(a, guess, i));
+    };
+    let mut measure = parallel::set_and_sum(residual, partials, |i, r| residual_of(x, i, r), norm_term);
     par_each(preconditioned, |i, cold| *cold = x[i] - filter(i, x[i]));
-    pattern.multiply(a, preconditioned, product);
-    par_each(direction, |i, r| *r = filter(i, b[i] - product[i]));
-    let cold_measure = norm(direction, partials);
+    let cold_measure = parallel::set_and_sum(direction, partials, |i, r| residual_of(preconditioned, i, r), norm_term);
     if cold_measure < measure {
         x.copy_from_slice(preconditioned);
         residual.copy_from_slice(direction);
         measure = cold_measure;
     }
-    precondition(&mut preconditioning, inverse_diagonal, constraints, residual, direction);
-    let mut delta = parallel::sum(n, partials, |i| residual[i].dot(&direction[i]));
+    let mut delta = precondition(&mut preconditioning, inverse_diagonal, constraints, residual, direction, partials);
     let mut iterations = 0;
+    // Each iteration is four passes over the particles besides the
+    // preconditioner: the product with the direction and its curvature, the
+    // residual and its norm, the preconditioned residual's dot with the
+    // residual, and the step of `x` with the next direction.
     while measure > threshold && iterations < settings.max_iterations {
-        pattern.multiply(a, direction, product);
-        par_each(product, |i, q| *q = filter(i, *q));
-        let curvature = parallel::sum(n, partials, |i| direction[i].dot(&product[i]));
+        let curvature = parallel::set_and_sum(
+            product,
+            partials,
+            |i, q| *q = filter(i, pattern.row_product(a, direction, i)),
+            |i, q| direction[i].dot(q),
+        );
         if curvature <= 0.0 {
             break;
         }
         let alpha = delta / curvature;
-        x.par_chunks_mut(CHUNK).zip(residual.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (xs, rs))| {
-            for (k, (xi, ri)) in xs.iter_mut().zip(rs.iter_mut()).enumerate() {
-                let i = c * CHUNK + k;
-                *xi += direction[i] * alpha;
-                *ri -= product[i] * alpha;
-            }
-        });
         iterations += 1;
-        measure = norm(residual, partials);
+        measure = parallel::set_and_sum(residual, partials, |i, r| *r -= product[i] * alpha, norm_term);
         if measure <= threshold {
+            par_each(x, |i, xi| *xi += direction[i] * alpha);
             break;
         }
-        precondition(&mut preconditioning, inverse_diagonal, constraints, residual, preconditioned);
         let previous = delta;
-        delta = parallel::sum(n, partials, |i| residual[i].dot(&preconditioned[i]));
+        delta = precondition(&mut preconditioning, inverse_diagonal, constraints, residual, preconditioned, partials);
         let beta = delta / previous;
-        par_each(direction, |i, d| *d = filter(i, preconditioned[i] + *d * beta));
+        step_and_turn(x, direction, alpha, |i, d| filter(i, preconditioned[i] + d * beta));
     }
     let relative = if reference > 0.0 { (measure / reference).max(0.0).sqrt() } else { 0.0 };
     PcgReport { iterations, relative_residual: relative, converged: measure <= threshold }
 }
 
-/// `z = S B r`: the preconditioner applied to `r`, then filtered.
+/// `x ← x + α d`, then `d ← next(i, d)`, in one pass.
+fn step_and_turn(
+    x: &mut [Vector3<f64>],
+    direction: &mut [Vector3<f64>],
+    alpha: f64,
+    next: impl Fn(usize, Vector3<f64>) -> Vector3<f64> + Sync,
+) {
+    x.par_chunks_mut(CHUNK).zip(direction.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (xs, ds))| {
+        for (k, (xi, di)) in xs.iter_mut().zip(ds.iter_mut()).enumerate() {
+            *xi += *di * alpha;
+            *di = next(c * CHUNK + k, *di);
+        }
+    });
+}
+
+/// `z = S B r`: the preconditioner applied to `r`, then filtered; returns
+/// `r · z`.
 fn precondition(
     preconditioning: &mut Preconditioning,
     inverse_diagonal: &[Matrix3<f64>],
     constraints: &[Constraint],
     r: &[Vector3<f64>],
     z: &mut [Vector3<f64>],
-) {
+    partials: &mut Vec<f64>,
+) -> f64 {
+    let dot = |i: usize, zi: &Vector3<f64>| r[i].dot(zi);
+    let filter_in_place = |i: usize, zi: &mut Vector3<f64>| *zi = constraints[i].filter(*zi);
     match preconditioning {
-        Preconditioning::BlockJacobi => par_each(z, |i, zi| *zi = constraints[i].filter(inverse_diagonal[i] * r[i])),
+        Preconditioning::BlockJacobi => {
+            parallel::set_and_sum(z, partials, |i, zi| *zi = constraints[i].filter(inverse_diagonal[i] * r[i]), dot)
+        }
         Preconditioning::Multigrid(multigrid) => {
             multigrid.apply(r, z);
-            par_each(z, |i, zi| *zi = constraints[i].filter(*zi));
+            parallel::set_and_sum(z, partials, filter_in_place, dot)
         }
         Preconditioning::Cholesky(cholesky) => {
             cholesky.apply(r, z);
-            par_each(z, |i, zi| *zi = constraints[i].filter(*zi));
+            parallel::set_and_sum(z, partials, filter_in_place, dot)
         }
     }
 }

@@ -73,7 +73,12 @@ impl BlockPattern {
 
     /// `y = A x` for block values `a`, parallel over rows.
     pub fn multiply(&self, a: &[Matrix3<f64>], x: &[Vector3<f64>], y: &mut [Vector3<f64>]) {
-        for_each_indexed(y, |i, yi| *yi = self.row(i).map(|s| a[s] * x[self.column(s)]).sum());
+        for_each_indexed(y, |i, yi| *yi = self.row_product(a, x, i));
+    }
+
+    /// `(A x)_i`, row `i` of the product, for block values `a`.
+    pub fn row_product(&self, a: &[Matrix3<f64>], x: &[Vector3<f64>], i: usize) -> Vector3<f64> {
+        self.row(i).map(|s| a[s] * x[self.column(s)]).sum()
     }
 
     /// `Σⱼ q_ij x_j` for row `i` of a matrix whose blocks are `q_ij · I`.
