@@ -28,12 +28,15 @@
 //! (the f32 factor fails, or a fresh one needs more than
 //! [`single_precision_allowance`]) switches the simulation to f64 factors.
 //!
-//! The factor keeps the diagonal and the blocks of the cloth's springs only.
+//! The factor's pattern is the diagonal and the blocks of the cloth's springs.
 //! Bending hinges also couple each hinge's two opposite corners. On a
 //! triangle mesh the shear spring across the hinge's edge joins them anyway;
 //! on a quad mesh (a grid) nothing does, and those blocks widen the stencil
 //! from 9 to ~21 points and several times the factor's fill, for a coupling
-//! that is weak next to the springs'. A dropped block `D` (rows `i`, `j`) is
+//! that is weak next to the springs'. So a hinge's block is kept only where
+//! the springs' factor already stores its entries (within a dissection leaf,
+//! along a separator, into a separator its subtree already reaches), which
+//! costs nothing, and dropped elsewhere. A dropped block `D` (rows `i`, `j`) is
 //! replaced by a bound of `‖D‖₂` times `I` on both diagonal blocks, which adds
 //! the positive semi-definite `[[‖D‖I, −D], [−Dᵀ, ‖D‖I]]`: the factored
 //! matrix stays positive definite and at least `S A S + c (I − S)`, so
@@ -197,17 +200,6 @@ impl LowerTriangle {
             .map_err(|e| CholeskyError::Analysis(format!("{e:?}")))
     }
 
-    /// The supernodal tree of the matrix in its own order.
-    fn tree(&self) -> Result<SupernodalTree, CholeskyError> {
-        match self.analysis()?.raw() {
-            SymbolicCholeskyRaw::Supernodal(supernodal) => {
-                SupernodalTree::new(supernodal, &self.column_start, &self.row_index)
-                    .map_err(|e| CholeskyError::Analysis(e.to_string()))
-            }
-            SymbolicCholeskyRaw::Simplicial(_) => Err(CholeskyError::Analysis("not supernodal".into())),
-        }
-    }
-
     /// The pattern of the upper triangle (the mirror of this one), as column
     /// starts and row indices.
     fn upper(&self) -> (Vec<u32>, Vec<u32>) {
@@ -236,6 +228,40 @@ impl LowerTriangle {
         let (c, r) = (entry.component as usize / 3, entry.component as usize % 3);
         T::from_f64(filtered[entry.slot as usize][(c, r)])
     }
+}
+
+/// The supernodal tree of `symbolic` (an analysis of a triangle of the same
+/// order whose pattern holds `lower`'s), with `lower`'s entries placed in it.
+fn symbolic_tree(symbolic: &SymbolicCholesky<u32>, lower: &LowerTriangle) -> Result<SupernodalTree, CholeskyError> {
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Supernodal(supernodal) => {
+            SupernodalTree::new(supernodal, &lower.column_start, &lower.row_index)
+                .map_err(|e| CholeskyError::Analysis(e.to_string()))
+        }
+        SymbolicCholeskyRaw::Simplicial(_) => Err(CholeskyError::Analysis("not supernodal".into())),
+    }
+}
+
+/// `kept` and every other block of `pattern` whose entries the factor of
+/// the `kept` blocks already stores (`tree`, unknown `k` at `position[k]`):
+/// keeping those fills in nothing and leaves fewer blocks to bound on the
+/// diagonal. On a grid they are the bending hinges within a nested-dissection
+/// leaf or along a separator, and those reaching a separator that their
+/// subtree's rows already hold.
+fn without_fill(pattern: &BlockPattern, mut kept: Vec<bool>, tree: &SupernodalTree, position: &[u32]) -> Vec<bool> {
+    for row in 0..pattern.rows() {
+        for slot in pattern.row(row) {
+            if kept[slot] {
+                continue;
+            }
+            let column = pattern.column(slot);
+            kept[slot] = (0..9).all(|k| {
+                let (a, b) = (position[3 * row + k / 3], position[3 * column + k % 3]);
+                tree.stores(a.max(b), a.min(b))
+            });
+        }
+    }
+    kept
 }
 
 /// Block `a` of row constraint `row` and column constraint `column`, filtered:
@@ -452,11 +478,14 @@ impl LaggedCholesky {
         couplings: &[[u32; 2]],
         positions: &[Vector3<f64>],
     ) -> Result<Self, CholeskyError> {
-        let kept = kept_slots(pattern, couplings);
-        let dropped = DroppedBlocks::new(pattern.rows(), dropped_blocks(pattern, &kept));
+        let springs = kept_slots(pattern, couplings);
         let (order, position) = dissection_order(pattern.rows(), couplings, positions);
+        let analysed = LowerTriangle::new(pattern, &springs).reordered(&order, &position);
+        let symbolic = analysed.analysis()?;
+        let kept = without_fill(pattern, springs, &symbolic_tree(&symbolic, &analysed)?, &position);
+        let dropped = DroppedBlocks::new(pattern.rows(), dropped_blocks(pattern, &kept));
         let lower = LowerTriangle::new(pattern, &kept).reordered(&order, &position);
-        let tree = lower.tree()?;
+        let tree = symbolic_tree(&symbolic, &lower)?;
         let numeric = Factor::Single(Numeric::new(&tree, &lower));
         Ok(LaggedCholesky {
             filtered: vec![Matrix3::zeros(); pattern.stored_blocks()],
@@ -664,7 +693,7 @@ mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
-    use crate::sim::test_grid::ring_positions;
+    use crate::sim::test_grid::{quad_grid, ring_positions};
 
     /// The couplings of the ring of `n` particles to their neighbours at
     /// ±1 and ±2.
@@ -750,7 +779,44 @@ mod tests {
     /// not `A` (something was dropped).
     #[test]
     fn dropped_blocks_leave_a_factor_of_a_larger_matrix() {
-        let n = 12;
+        // Long enough for separators: the ±2 couplings across them would fill in.
+        let (excess, scale) = factored_minus_system(48);
+        assert!(excess.min() > -1e-9 * scale, "P − A has eigenvalue {:e}", excess.min());
+        assert!(excess.max() > 1e-3 * scale, "the ±2 couplings across separators were dropped");
+    }
+
+    /// Besides the springs, the factor keeps exactly the blocks whose
+    /// entries the springs' factor stores anyway: it stores as many values
+    /// as the springs' alone, and on a quad grid that keeps some, not all,
+    /// of the couplings two particles apart (where a quad mesh's hinges join).
+    #[test]
+    fn blocks_the_factor_stores_anyway_are_kept_at_no_fill() {
+        let n = 24;
+        let (springs, positions) = quad_grid(n);
+        let id = |r: usize, c: usize| (r * n + c) as u32;
+        let two_apart: Vec<[u32; 2]> = (0..n)
+            .flat_map(|r| (0..n).map(move |c| (r, c)))
+            .flat_map(|(r, c)| {
+                [(r + 2 < n).then(|| [id(r, c), id(r + 2, c)]), (c + 2 < n).then(|| [id(r, c), id(r, c + 2)])]
+            })
+            .flatten()
+            .collect();
+        let pattern = BlockPattern::new(n * n, springs.iter().chain(&two_apart).copied());
+        let cholesky = LaggedCholesky::new(&pattern, &springs, &positions).unwrap();
+
+        let (order, position) = dissection_order(n * n, &springs, &positions);
+        let springs_only = LowerTriangle::new(&pattern, &kept_slots(&pattern, &springs)).reordered(&order, &position);
+        let springs_values = symbolic_tree(&springs_only.analysis().unwrap(), &springs_only).unwrap().value_count();
+        assert_eq!(cholesky.tree.value_count(), springs_values);
+        let kept_two_apart =
+            two_apart.iter().filter(|&&[a, b]| cholesky.kept[pattern.slot(a as usize, b as usize).unwrap()]).count();
+        assert!(kept_two_apart > two_apart.len() / 4, "{kept_two_apart} of {} kept", two_apart.len());
+        assert!(kept_two_apart < two_apart.len(), "every coupling two apart kept: nothing crosses a separator");
+    }
+
+    /// The eigenvalues of `P − A` for the factored matrix `P` of a ring of
+    /// `n` particles whose factor keeps the ±1 couplings, and `‖A‖`.
+    fn factored_minus_system(n: usize) -> (DVector<f64>, f64) {
         let (pattern, a) = ring(n, 11);
         let neighbours: Vec<[u32; 2]> = (0..n as u32).map(|i| [i, (i + 1) % n as u32]).collect();
         let mut cholesky = LaggedCholesky::new(&pattern, &neighbours, &ring_positions(n)).unwrap();
@@ -769,10 +835,7 @@ mod tests {
         }
         let factored = inverse.try_inverse().unwrap();
         let system = dense(&pattern, |s, _| a[s]);
-        let excess = (&factored - &system).symmetric_eigenvalues();
-        let scale = system.norm();
-        assert!(excess.min() > -1e-9 * scale, "P − A has eigenvalue {:e}", excess.min());
-        assert!(excess.max() > 1e-3 * scale, "the ±2 couplings were dropped");
+        ((&factored - &system).symmetric_eigenvalues(), system.norm())
     }
 
     /// The factor is analysed in nested-dissection order: on a grid it fills
@@ -799,7 +862,7 @@ mod tests {
             (0..side * side).map(|k| Vector3::new((k % side) as f64, 0.0, (k / side) as f64) * 0.01).collect();
         let pattern = BlockPattern::new((side * side) as usize, pairs.iter().copied());
         let natural = LowerTriangle::new(&pattern, &kept_slots(&pattern, &pairs));
-        let unordered = natural.tree().unwrap().value_count();
+        let unordered = symbolic_tree(&natural.analysis().unwrap(), &natural).unwrap().value_count();
         let cholesky = LaggedCholesky::new(&pattern, &pairs, &positions).unwrap();
         let dissected = cholesky.tree.value_count();
         assert!(dissected < unordered, "dissection fills {dissected} entries, the grid order {unordered}");

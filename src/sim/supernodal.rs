@@ -169,6 +169,12 @@ impl SupernodalTree {
         self.begin.partition_point(|&b| b <= column as usize) - 1
     }
 
+    /// Whether the factor stores entry (`row`, `column`), `row ≥ column`.
+    pub fn stores(&self, row: u32, column: u32) -> bool {
+        let s = self.supernode_of(column);
+        (row as usize) < self.begin[s + 1] || self.pattern_of(s).binary_search(&row).is_ok()
+    }
+
     /// Rows (diagonal block and below) of supernode `s`.
     fn rows(&self, s: usize) -> usize {
         self.columns(s) + self.pattern_of(s).len()
