@@ -14,6 +14,17 @@ pub const CHUNK: usize = 256;
 /// pool costs more than the work (the coarse levels of the multigrid).
 pub const PARALLEL_FROM: usize = 4 * CHUNK;
 
+/// Runs `work` on a thread of the current pool (the global one when called
+/// from outside any pool) and waits for it. A parallel loop started from
+/// outside the pool hands its work over and sleeps until it is done, a
+/// wake-up and a sleep of two threads per loop; started from a thread of
+/// the pool, it runs there and lends work to the others. A step starts some
+/// hundreds of loops: this one hand-over replaces theirs. Nothing it computes
+/// depends on which thread runs it.
+pub fn on_pool<R: Send>(work: impl FnOnce() -> R + Send) -> R {
+    rayon::scope(|_| work())
+}
+
 /// Sets every element of `v` from its index: in parallel chunks when `v` is
 /// long enough to pay for it, on the calling thread otherwise. The result does
 /// not depend on which.
@@ -83,6 +94,16 @@ pub fn max(len: usize, term: impl Fn(usize) -> f64 + Sync + Send) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Work handed to the pool from a thread outside it runs on one of the
+    /// pool's threads, and its result comes back.
+    #[test]
+    fn work_on_the_pool_runs_on_a_pool_thread() {
+        assert_eq!(rayon::current_thread_index(), None, "the test harness's thread is not the pool's");
+        let (on_a_pool_thread, total) = on_pool(|| (rayon::current_thread_index().is_some(), max(5, |i| i as f64)));
+        assert!(on_a_pool_thread);
+        assert_eq!(total, 4.0);
+    }
 
     #[test]
     fn sum_is_identical_on_one_and_two_threads() {

@@ -729,8 +729,14 @@ impl Simulator {
         }
     }
 
-    /// Advances by one backward-Euler step of `h` seconds.
+    /// Advances by one backward-Euler step of `h` seconds, on a thread of
+    /// the rayon pool ([`parallel::on_pool`]).
     pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
+        parallel::on_pool(|| self.step_on_pool(h))
+    }
+
+    /// [`Self::step`], on the thread it runs on.
+    fn step_on_pool(&mut self, h: f64) -> Result<StepReport, StepError> {
         if let Some(ramp) = &mut self.ramp
             && !ramp.advance(&mut self.particles, &mut self.springs, self.strain_limits.as_mut())
         {
