@@ -88,6 +88,35 @@ fn moving_the_stretch_slider_changes_the_workers_fabric() {
     assert!(h.state().dirty, "an edit marks the scene unsaved");
 }
 
+/// The collision panel (PAPER Fig. 10c): the garment's contact thickness and
+/// friction change live, the same values the fabric panel shows; a pipeline
+/// setting restarts the simulation with the scene edited.
+#[test]
+fn the_collision_panel_edits_contact_live_and_the_pipeline_by_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_label("Collision").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::Slider, "Contact thickness").set_value_accesskit(0.004);
+    h.get_by_role_and_label(Role::Slider, "Contact friction").set_value_accesskit(0.8);
+    h.run_steps(2);
+    let fabric = &h.state().scene.garments[0].fabric;
+    assert_eq!((fabric.thickness_m, fabric.friction), (0.004, 0.8));
+    assert_eq!(slider_value(&h, "Thickness"), 0.004, "the fabric panel shows the same thickness");
+    assert_eq!(slider_value(&h, "Friction"), 0.8, "and the same friction");
+    wait_until(&mut h, "the worker to take the new contact", |e| {
+        (e.simulated_fabrics[0].thickness_m, e.simulated_fabrics[0].friction) == (0.004, 0.8)
+    });
+
+    h.get_by_role_and_label(Role::SpinButton, "Constraint sweeps").set_value_accesskit(12.0);
+    h.run_steps(2);
+    h.state_mut().finish_loading();
+    h.run_steps(3);
+    assert_eq!(h.state().scene.file.collision.constraint_sweeps, 12);
+    assert_eq!(h.state().scene.garments[0].fabric.thickness_m, 0.004, "the live edit survives the restart");
+}
+
 #[test]
 fn choosing_a_preset_sets_every_slider_to_its_values() {
     let dir = tempfile::tempdir().unwrap();

@@ -147,21 +147,42 @@ pub fn sliders(ui: &mut egui::Ui, fabric: &mut Fabric) -> bool {
     let mut changed = false;
     egui::Grid::new("fabric parameters").num_columns(2).striped(true).show(ui, |ui| {
         for p in &PARAMETERS {
-            let label = ui.label(p.label).on_hover_text(p.effect);
-            let value = (p.value)(fabric);
-            let slider = egui::Slider::new(value, p.range.0..=p.range.1)
-                .logarithmic(p.logarithmic)
-                .suffix(format!(" {}", p.unit))
-                .clamping(egui::SliderClamping::Never)
-                .custom_formatter(|v, _| format_value(v));
-            let response = ui.add(slider).labelled_by(label.id).on_hover_text(p.effect);
-            changed |= response.changed();
-            ui.end_row();
+            changed |= slider_row(ui, p, p.label, fabric);
         }
         let label = ui.label("Strain limit").on_hover_text(STRAIN_LIMIT_EFFECT);
         changed |= strain_limit(ui, fabric, label.id);
         ui.end_row();
     });
+    changed
+}
+
+/// The contact parameters of `fabric` (friction and thickness) again, for
+/// the collision panel, labelled "Contact friction" and "Contact
+/// thickness" (the fabric panel's own sliders keep their names); returns
+/// true when one changed.
+pub fn contact_sliders(ui: &mut egui::Ui, fabric: &mut Fabric) -> bool {
+    let mut changed = false;
+    egui::Grid::new("contact parameters").num_columns(2).show(ui, |ui| {
+        for (name, label) in [("Friction", "Contact friction"), ("Thickness", "Contact thickness")] {
+            if let Some(p) = parameter(name) {
+                changed |= slider_row(ui, p, label, fabric);
+            }
+        }
+    });
+    changed
+}
+
+/// One grid row: `label`, then the slider of parameter `p` of `fabric`, with
+/// its unit and effect; returns true when it changed.
+fn slider_row(ui: &mut egui::Ui, p: &Parameter, label: &str, fabric: &mut Fabric) -> bool {
+    let label = ui.label(label).on_hover_text(p.effect);
+    let slider = egui::Slider::new((p.value)(fabric), p.range.0..=p.range.1)
+        .logarithmic(p.logarithmic)
+        .suffix(format!(" {}", p.unit))
+        .clamping(egui::SliderClamping::Never)
+        .custom_formatter(|v, _| format_value(v));
+    let changed = ui.add(slider).labelled_by(label.id).on_hover_text(p.effect).changed();
+    ui.end_row();
     changed
 }
 

@@ -285,9 +285,16 @@ fn fabric(ui: &mut Ui, editor: &mut Editor) {
 }
 
 fn collision(ui: &mut Ui, editor: &mut Editor) {
-    ui.label("Thickness and friction are in the fabric panel (live). These restart the simulation:");
-    let mut settings = editor.scene.file.collision.clone();
     let g = editor.garment;
+    ui.label("The selected garment's contact, live (the same values as the fabric panel's):");
+    if let Some(garment) = editor.scene.garments.get_mut(g)
+        && fabric_panel::contact_sliders(ui, &mut garment.fabric)
+    {
+        editor.fabric_changed();
+    }
+    ui.separator();
+    ui.label("These restart the simulation:");
+    let mut settings = editor.scene.file.collision.clone();
     let mut self_collision = editor.scene.file.garments.get(g).is_some_and(|s| s.self_collision);
     let mut changed = false;
     changed |=
@@ -307,6 +314,10 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
         let tip = "Influence at which contacts are solved together (semi-global constraints)";
         row(ui, "Influence threshold", tip, &mut |ui| {
             ui.add(egui::Slider::new(&mut settings.influence_threshold, 0.5..=10.0))
+        });
+        let tip = "Sweeps over the contacts solved together (eq. 16) in each pass";
+        row(ui, "Constraint sweeps", tip, &mut |ui| {
+            ui.add(egui::DragValue::new(&mut settings.constraint_sweeps).range(1..=100))
         });
         let tip = "Rounds of rigid impact zones before a step gives up";
         row(ui, "Impact-zone rounds", tip, &mut |ui| {
