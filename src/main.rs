@@ -47,7 +47,8 @@ enum Command {
         /// close (smoke tests, screenshots for documentation).
         #[arg(long, hide = true)]
         screenshot: Option<PathBuf>,
-        /// With --screenshot: simulate this many frames live first.
+        /// With --screenshot: simulate this many frames live first (at most the
+        /// scene's range).
         #[arg(long, hide = true, default_value_t = 0)]
         screenshot_after: usize,
     },

@@ -30,8 +30,16 @@ const ANIMATION_HZ: f64 = 30.0;
 pub struct Screenshot {
     /// The PNG to write.
     pub path: PathBuf,
-    /// Simulate this many frames live first (0: the initial state).
+    /// Simulate this many frames live first (0: the initial state); at most
+    /// the scene's range, where the simulation stops.
     pub after_frames: usize,
+}
+
+impl Screenshot {
+    /// The frames to simulate before the image on a scene of `range` frames.
+    fn frames_wanted(&self, range: usize) -> usize {
+        self.after_frames.min(range)
+    }
 }
 
 /// Opens the editor's window on `scene` and runs until it is closed (or,
@@ -193,11 +201,12 @@ impl Open {
             return false;
         }
         let simulated = self.editor.timeline.last();
-        if simulated < shot.after_frames && self.editor.run == super::editor::RunState::Idle {
+        let wanted = shot.frames_wanted(self.editor.timeline.range);
+        if simulated < wanted && self.editor.run == super::editor::RunState::Idle {
             self.editor.simulate();
         }
         // The frame drawn must show the newest frame's pose.
-        simulated >= shot.after_frames && self.editor.timeline.current() == simulated
+        simulated >= wanted && self.editor.timeline.current() == simulated
     }
 
     fn resize(&mut self, width: u32, height: u32) {
@@ -310,5 +319,17 @@ impl Open {
         let image =
             read_texture(&self.gpu, &texture, (width, height)).map_err(|e| AppError::Graphics(e.to_string()))?;
         write_png(path, &image).map_err(|e| AppError::Graphics(e.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_screenshot_after_more_frames_than_the_scene_has_waits_for_its_last() {
+        let shot = Screenshot { path: PathBuf::from("shot.png"), after_frames: 120 };
+        assert_eq!(shot.frames_wanted(114), 114);
+        assert_eq!(shot.frames_wanted(300), 120);
     }
 }
