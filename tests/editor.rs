@@ -193,6 +193,42 @@ fn switching_the_light_changes_the_viewport_image() {
 }
 
 #[test]
+fn on_a_software_rasteriser_a_still_view_is_drawn_again_anti_aliased() {
+    let dir = tempfile::tempdir().unwrap();
+    let gpu = Gpu::headless().unwrap_or_else(|e| panic!("{e}"));
+    let software = gpu.adapter_name.contains("llvmpipe") || gpu.adapter_name.contains("lavapipe");
+    let mut ui_renderer =
+        egui_wgpu::Renderer::new(&gpu.device, wgpu::TextureFormat::Rgba8Unorm, egui_wgpu::RendererOptions::default());
+    let mut viewport = Viewport::new(&gpu).expect("lavapipe runs the renderer");
+    viewport.resolution_scale = 1.0;
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    wait_until(&mut h, "frame 0", |e| !e.timeline.is_empty() && !e.is_animating());
+    let mut render = |h: &mut Harness<'_, Editor>| {
+        viewport.render(h.state_mut(), [240, 160], &mut ui_renderer);
+        (viewport.image().unwrap().unwrap(), viewport.needs_refinement())
+    };
+    let (first, refine) = render(&mut h);
+    assert_eq!(refine, software, "a new view is drawn at one sample only on a software rasteriser");
+    let (second, refine) = render(&mut h);
+    assert!(!refine, "the still view is anti-aliased on the next redraw");
+    let mean_difference = first
+        .pixels()
+        .zip(second.pixels())
+        .map(|(p, q)| (0..3).map(|c| f64::from(p[c].abs_diff(q[c]))).sum::<f64>())
+        .sum::<f64>()
+        / f64::from(first.width() * first.height() * 3 * 255);
+    assert!(mean_difference < 0.01, "the same view, up to its edges: {mean_difference}");
+    assert_eq!(mean_difference > 0.0, software, "the edges changed only where the first image was not anti-aliased");
+    h.state_mut().simulate();
+    wait_until(&mut h, "frame 1", |e| e.timeline.len() > 1);
+    let (_, refine) = render(&mut h);
+    assert_eq!(
+        refine, software,
+        "while the cloth simulates, new frames are drawn at one sample on a software rasteriser"
+    );
+}
+
+#[test]
 fn a_malformed_garment_obj_is_reported_and_the_scene_kept() {
     let dir = tempfile::tempdir().unwrap();
     let bad: PathBuf = dir.path().join("broken.obj");

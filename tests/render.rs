@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 use drape::bake::Baker;
 use drape::io::pc2::read_pc2;
 use drape::render::lights::LightRig;
-use drape::render::{Bounds, DrawMesh, Gpu, Material, OffscreenTarget, OrbitCamera, Renderer, View};
+use drape::render::{Bounds, DrawMesh, Gpu, Material, OffscreenTarget, OrbitCamera, Renderer, TextureTarget, View};
 use drape::scene::Scene;
 use drape::sim::colliders::Shape;
 use drape::stage::offscreen::OffscreenStage;
@@ -163,8 +163,9 @@ fn light_rigs_change_brightness_and_where_the_shadow_falls() {
     assert!(between(angle(offsets[2]), angle(offsets[1])) > 45.0, "{offsets:?}");
 }
 
-/// A fabric ball lit from the camera's direction, with or without sheen.
-fn sheen_ball(gpu: &Gpu, sheen: [f32; 3]) -> RgbaImage {
+/// A fabric ball lit from the camera's direction, with or without sheen: its
+/// renderer and view.
+fn ball_scene(gpu: &Gpu, sheen: [f32; 3]) -> (Renderer, View) {
     let ball = shape_mesh(&Shape::Sphere { radius: 0.5 }).unwrap();
     let material = Material { sheen_color: sheen, sheen_roughness: 0.4, ..Material::matte([0.35, 0.12, 0.1], 0.8) };
     let mesh = DrawMesh {
@@ -198,8 +199,13 @@ color = [1, 1, 1]
     .unwrap();
     let camera = OrbitCamera { target: Vec3::ZERO, yaw_deg: 0.0, pitch_deg: 0.0, distance_m: 3.0, fov_y_deg: 30.0 };
     let bounds = Bounds { min: Vec3::splat(-0.5), max: Vec3::splat(0.5) };
-    let target = OffscreenTarget::new(gpu, 200, 200);
-    target.render(gpu, &renderer, &View::new(camera, 1.0, &rig, 0.0, bounds)).unwrap()
+    (renderer, View::new(camera, 1.0, &rig, 0.0, bounds))
+}
+
+/// [`ball_scene`]'s image, 200 × 200.
+fn sheen_ball(gpu: &Gpu, sheen: [f32; 3]) -> RgbaImage {
+    let (renderer, view) = ball_scene(gpu, sheen);
+    OffscreenTarget::new(gpu, 200, 200).render(gpu, &renderer, &view).unwrap()
 }
 
 #[test]
@@ -227,6 +233,23 @@ fn difference(a: &RgbaImage, b: &RgbaImage) -> (f64, f64) {
     diffs.sort_by(f64::total_cmp);
     let mean = diffs.iter().sum::<f64>() / diffs.len() as f64;
     (mean, diffs[diffs.len() * 95 / 100])
+}
+
+#[test]
+fn a_one_sample_image_is_the_anti_aliased_one_but_its_edges() {
+    let gpu = Gpu::headless().unwrap();
+    let (renderer, view) = ball_scene(&gpu, [1.0; 3]);
+    let target = TextureTarget::new(&gpu, 200, 200);
+    let draw = |antialiased| {
+        target.render(&gpu, &renderer, &view, antialiased);
+        target.read(&gpu).unwrap()
+    };
+    let (single, multi) = (draw(false), draw(true));
+    assert_eq!(multi, sheen_ball(&gpu, [1.0; 3]), "anti-aliased, the viewport's image is the offline one");
+    assert!(luma(single.get_pixel(100, 100)) > 0.1, "the ball is drawn at one sample too");
+    let (mean, p95) = difference(&single, &multi);
+    assert!(mean < 0.01 && p95 < 0.02, "mean {mean}, 95th percentile {p95}");
+    assert!(mean > 0.0, "the silhouette is not anti-aliased at one sample");
 }
 
 #[test]

@@ -1,7 +1,10 @@
 //! The editor's 3D view: the scene's [`Stage`] drawn by the PBR renderer into
 //! a texture that egui shows. It re-renders only when what it shows changed
 //! (frame, camera, lights, size, scene), so a software rasteriser keeps the
-//! UI responsive.
+//! UI responsive. On a software rasteriser it also draws half the window's
+//! resolution, and while the image changes (the cloth simulating or playing,
+//! the camera moving) one sample per pixel: 4× MSAA there costs half of each
+//! render. Once the view is still it is drawn again, anti-aliased.
 
 use std::sync::Arc;
 
@@ -28,13 +31,18 @@ pub struct Viewport {
     stage: Option<(u64, Stage)>,
     target: Option<TextureTarget>,
     texture: Option<egui::TextureId>,
-    shown: Option<Shown>,
+    /// What the last image shows, and whether it was anti-aliased.
+    shown: Option<(Shown, bool)>,
+    /// Whether images of a changing view are anti-aliased too (on a GPU).
+    antialias_moving: bool,
     /// Fraction of the window's pixels rendered (below 1 on a software rasteriser).
     pub resolution_scale: f32,
 }
 
 impl Viewport {
-    /// A viewport on `gpu`, or why the adapter cannot render it.
+    /// A viewport on `gpu` (anti-aliased at full resolution on a GPU, see
+    /// the module's doc on a software rasteriser), or why the adapter cannot
+    /// render it.
     pub fn new(gpu: &Gpu) -> Result<Viewport, RenderError> {
         let software = gpu.adapter_name.contains("llvmpipe") || gpu.adapter_name.contains("lavapipe");
         Ok(Viewport {
@@ -44,6 +52,7 @@ impl Viewport {
             target: None,
             texture: None,
             shown: None,
+            antialias_moving: !software,
             resolution_scale: if software { 0.5 } else { 1.0 },
         })
     }
@@ -53,6 +62,12 @@ impl Viewport {
         self.target.as_ref().map(|t| t.read(&self.gpu))
     }
 
+    /// Whether the last image was drawn without anti-aliasing, to be drawn
+    /// again with it on the next redraw if the view stays still.
+    pub fn needs_refinement(&self) -> bool {
+        self.shown.as_ref().is_some_and(|(_, antialiased)| !antialiased)
+    }
+
     /// The texture of the last render, if any.
     pub fn texture(&self) -> Option<egui::TextureId> {
         self.texture
@@ -60,7 +75,8 @@ impl Viewport {
 
     /// Renders the editor's current view at `size` physical pixels (scaled by
     /// [`Self::resolution_scale`]) into the texture registered with `ui_renderer`,
-    /// when anything shown changed. Sets the editor's automatic framing.
+    /// when anything shown changed, or anti-aliased when it did not and the
+    /// editor is still. Sets the editor's automatic framing.
     pub fn render(&mut self, editor: &mut Editor, size: [u32; 2], ui_renderer: &mut egui_wgpu::Renderer) {
         if self.stage.as_ref().is_none_or(|(g, _)| *g != editor.generation) {
             match Stage::new(&editor.scene) {
@@ -106,13 +122,18 @@ impl Viewport {
             size: scaled,
             body_only: editor.timeline.body_only,
         };
-        if self.shown.as_ref() == Some(&shown) {
+        let (same, refined) = match &self.shown {
+            Some((last, antialiased)) => (*last == shown, *antialiased),
+            None => (false, false),
+        };
+        let antialiased = self.antialias_moving || (same && !editor.is_animating());
+        if same && (refined || !antialiased) {
             return;
         }
         stage.pose(&mut self.renderer, &frame.positions, time_s);
         stage.show_garments(&mut self.renderer, !shown.body_only);
         let view = stage.view_through(camera, target.aspect(), editor.light_rig(), time_s);
-        target.render(&self.gpu, &self.renderer, &view);
-        self.shown = Some(shown);
+        target.render(&self.gpu, &self.renderer, &view, antialiased);
+        self.shown = Some((shown, antialiased));
     }
 }

@@ -128,11 +128,13 @@ impl ApplicationHandler for App {
         }
     }
 
-    /// While something moves by itself, wake up at most [`ANIMATION_HZ`] times
-    /// a second to redraw: a busy redraw loop would take a core from the
-    /// simulation (and lavapipe draws on the CPU).
+    /// While something moves by itself, or the viewport has a still image to
+    /// draw anti-aliased, wake up at most [`ANIMATION_HZ`] times a second to
+    /// redraw: a busy redraw loop would take a core from the simulation (and
+    /// lavapipe draws on the CPU).
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
-        let animating = self.open.as_ref().is_some_and(|o| o.editor.is_animating()) || self.screenshot.is_some();
+        let redraw = |o: &Open| o.editor.is_animating() || o.viewport.needs_refinement();
+        let animating = self.open.as_ref().is_some_and(redraw) || self.screenshot.is_some();
         if animating {
             let next = Instant::now() + std::time::Duration::from_secs_f64(1.0 / ANIMATION_HZ);
             event_loop.set_control_flow(ControlFlow::WaitUntil(next));
@@ -205,8 +207,10 @@ impl Open {
         if simulated < wanted && self.editor.run == super::editor::RunState::Idle {
             self.editor.simulate();
         }
-        // The frame drawn must show the newest frame's pose.
-        simulated >= wanted && self.editor.timeline.current() == simulated
+        // The frame drawn must show the newest frame's pose, anti-aliased
+        // once the simulation has stopped.
+        let finished = self.editor.is_animating() || !self.viewport.needs_refinement();
+        simulated >= wanted && self.editor.timeline.current() == simulated && finished
     }
 
     fn resize(&mut self, width: u32, height: u32) {

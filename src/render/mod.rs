@@ -5,7 +5,8 @@
 //! of the solver. Shading is metallic-roughness Cook-Torrance with a fabric
 //! sheen lobe (glTF KHR_materials_sheen), two-sided; the key light casts a
 //! PCF-filtered shadow map; output is exposed (EV100), ACES-filmic tone mapped
-//! and sRGB encoded, with 4× MSAA. WGSL lives in `shaders/`.
+//! and sRGB encoded, with 4× MSAA (or one sample, for the editor's viewport
+//! on a software rasteriser while it moves). WGSL lives in `shaders/`.
 
 pub mod camera;
 pub mod draw;

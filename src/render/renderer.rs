@@ -15,7 +15,8 @@ use super::sheen::{MIN_SHEEN_ROUGHNESS, SHEEN_TABLE_SIZE, sheen_albedo_table};
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 /// Depth format of the main pass and the shadow map.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// Samples per pixel (MSAA).
+/// Samples per pixel (MSAA) of every image drape writes, and of the editor's
+/// viewport once it is still.
 pub const SAMPLE_COUNT: u32 = 4;
 /// Side of the square shadow map, texels.
 const SHADOW_MAP_SIZE: u32 = 2048;
@@ -124,7 +125,11 @@ struct GpuMesh {
 /// Pipelines, the shadow map and the uploaded meshes.
 pub struct Renderer {
     gpu: Gpu,
+    /// The PBR pass into [`SAMPLE_COUNT`]-sample targets.
     pbr: wgpu::RenderPipeline,
+    /// The PBR pass into one-sample targets (a software rasteriser's viewport
+    /// while it moves).
+    pbr_single: wgpu::RenderPipeline,
     shadow: wgpu::RenderPipeline,
     object_layout: wgpu::BindGroupLayout,
     frame_uniforms: wgpu::Buffer,
@@ -256,9 +261,10 @@ impl Renderer {
             entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX)],
         });
 
-        let (pbr, shadow) = gpu.validated(|device| {
-            let pbr = Self::pbr_pipeline(device, &frame_layout, &object_layout);
-            (pbr, Self::shadow_pipeline(device, &shadow_layout, &object_layout))
+        let (pbr, pbr_single, shadow) = gpu.validated(|device| {
+            let pbr = Self::pbr_pipeline(device, &frame_layout, &object_layout, SAMPLE_COUNT);
+            let pbr_single = Self::pbr_pipeline(device, &frame_layout, &object_layout, 1);
+            (pbr, pbr_single, Self::shadow_pipeline(device, &shadow_layout, &object_layout))
         })?;
 
         let shadow_map = device
@@ -330,6 +336,7 @@ impl Renderer {
         Ok(Renderer {
             gpu: gpu.clone(),
             pbr,
+            pbr_single,
             shadow,
             object_layout,
             frame_uniforms,
@@ -347,6 +354,7 @@ impl Renderer {
         device: &wgpu::Device,
         frame: &wgpu::BindGroupLayout,
         object: &wgpu::BindGroupLayout,
+        samples: u32,
     ) -> wgpu::RenderPipeline {
         let (module, layout) =
             module_and_layout(device, "pbr", include_str!("../../shaders/pbr.wgsl"), [frame, object]);
@@ -368,7 +376,7 @@ impl Renderer {
                 stencil: Default::default(),
                 bias: Default::default(),
             }),
-            multisample: wgpu::MultisampleState { count: SAMPLE_COUNT, ..Default::default() },
+            multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
             fragment: Some(wgpu::FragmentState {
                 module: &module,
                 entry_point: Some("fs_main"),
@@ -500,8 +508,8 @@ impl Renderer {
     }
 
     /// Records the shadow pass and the main pass of `view` into `encoder`:
-    /// colour into `color` (multisampled, resolved into `resolve`), depth into
-    /// `depth` (multisampled).
+    /// colour into `color` and depth into `depth`, both of [`SAMPLE_COUNT`]
+    /// samples resolved into `resolve`, or of one sample without it.
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -540,7 +548,7 @@ impl Renderer {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(&self.pbr);
+        pass.set_pipeline(if resolve.is_some() { &self.pbr } else { &self.pbr_single });
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
         for mesh in self.meshes.iter().filter(|m| m.visible) {
             draw(&mut pass, mesh);

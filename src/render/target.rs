@@ -38,12 +38,15 @@ fn attachment(
     })
 }
 
+/// A render attachment of a `size` image with `samples` per pixel.
+fn sampled(gpu: &Gpu, label: &str, size: (u32, u32), format: wgpu::TextureFormat, samples: u32) -> wgpu::TextureView {
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+    attachment(gpu, label, size, format, samples, usage, &[]).create_view(&Default::default())
+}
+
 /// The multisampled colour and depth attachments of a `size` image.
 fn multisampled(gpu: &Gpu, size: (u32, u32)) -> [wgpu::TextureView; 2] {
-    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
-    let color = attachment(gpu, "colour", size, COLOR_FORMAT, SAMPLE_COUNT, usage, &[]);
-    let depth = attachment(gpu, "depth", size, DEPTH_FORMAT, SAMPLE_COUNT, usage, &[]);
-    [color.create_view(&Default::default()), depth.create_view(&Default::default())]
+    [sampled(gpu, "colour", size, COLOR_FORMAT, SAMPLE_COUNT), sampled(gpu, "depth", size, DEPTH_FORMAT, SAMPLE_COUNT)]
 }
 
 impl OffscreenTarget {
@@ -147,12 +150,17 @@ pub fn read_texture(
 }
 
 /// A render target that stays on the GPU to be drawn by a UI (the editor's
-/// viewport): the image is resolved into a texture that can be sampled.
+/// viewport): the image is resolved into a texture that can be sampled, or
+/// drawn into it at one sample per pixel where that is what a frame can
+/// afford.
 pub struct TextureTarget {
     /// Size, pixels.
     pub size: (u32, u32),
+    /// The multisampled colour and depth of an anti-aliased image.
     color: wgpu::TextureView,
     depth: wgpu::TextureView,
+    /// The depth of a one-sample image, drawn into the image directly.
+    single_depth: wgpu::TextureView,
     image: wgpu::Texture,
     resolved: wgpu::TextureView,
     /// The resolved image viewed as plain `Rgba8Unorm`: sampling it gives the
@@ -165,6 +173,7 @@ impl TextureTarget {
     pub fn new(gpu: &Gpu, width: u32, height: u32) -> TextureTarget {
         let size = (width.max(1), height.max(1));
         let [color, depth] = multisampled(gpu, size);
+        let single_depth = sampled(gpu, "depth", size, DEPTH_FORMAT, 1);
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC;
@@ -175,6 +184,7 @@ impl TextureTarget {
             size,
             color,
             depth,
+            single_depth,
             resolved: resolved.create_view(&Default::default()),
             image: resolved,
             encoded,
@@ -186,11 +196,16 @@ impl TextureTarget {
         self.size.0 as f32 / self.size.1 as f32
     }
 
-    /// Renders `view` with `renderer` into the texture (no read-back).
-    pub fn render(&self, gpu: &Gpu, renderer: &Renderer, view: &View) {
+    /// Renders `view` with `renderer` into the texture (no read-back),
+    /// anti-aliased ([`SAMPLE_COUNT`] samples per pixel) or at one sample.
+    pub fn render(&self, gpu: &Gpu, renderer: &Renderer, view: &View, antialiased: bool) {
         let mut encoder =
             gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewport") });
-        renderer.encode(&mut encoder, view, &self.color, Some(&self.resolved), &self.depth);
+        if antialiased {
+            renderer.encode(&mut encoder, view, &self.color, Some(&self.resolved), &self.depth);
+        } else {
+            renderer.encode(&mut encoder, view, &self.resolved, None, &self.single_depth);
+        }
         gpu.queue.submit([encoder.finish()]);
     }
 
