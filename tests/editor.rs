@@ -7,12 +7,14 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use drape::app::Editor;
+use drape::app::blit::BlitPipeline;
 use drape::app::editor::RunState;
 use drape::app::fabric_panel::PARAMETERS;
 use drape::app::panels::editor_ui;
 use drape::app::viewport::Viewport;
 use drape::bake;
 use drape::render::Gpu;
+use drape::render::target::read_texture;
 use drape::scene::Scene;
 use drape::scene::preset::Preset;
 use egui::accesskit::Role;
@@ -51,7 +53,7 @@ fn harness(editor: Editor) -> Harness<'static, Editor> {
     Harness::builder().with_size(egui::Vec2::new(1400.0, 1000.0)).build_ui_state(
         |ui, editor: &mut Editor| {
             editor.update(0.0);
-            editor_ui(ui, editor, None);
+            editor_ui(ui, editor, false);
         },
         editor,
     )
@@ -165,7 +167,7 @@ fn switching_the_light_changes_the_viewport_image() {
     let gpu = Gpu::headless().unwrap_or_else(|e| panic!("{e}"));
     let mut ui_renderer =
         egui_wgpu::Renderer::new(&gpu.device, wgpu::TextureFormat::Rgba8Unorm, egui_wgpu::RendererOptions::default());
-    let mut viewport = Viewport::new(&gpu).expect("lavapipe runs the renderer");
+    let mut viewport = Viewport::new(&gpu, wgpu::TextureFormat::Rgba8Unorm).expect("lavapipe runs the renderer");
     viewport.resolution_scale = 1.0;
     let mut h = harness(Editor::new(small_scene(dir.path())));
     wait_until(&mut h, "frame 0", |e| !e.timeline.is_empty());
@@ -199,7 +201,7 @@ fn on_a_software_rasteriser_a_still_view_is_drawn_again_anti_aliased() {
     let software = gpu.adapter_name.contains("llvmpipe") || gpu.adapter_name.contains("lavapipe");
     let mut ui_renderer =
         egui_wgpu::Renderer::new(&gpu.device, wgpu::TextureFormat::Rgba8Unorm, egui_wgpu::RendererOptions::default());
-    let mut viewport = Viewport::new(&gpu).expect("lavapipe runs the renderer");
+    let mut viewport = Viewport::new(&gpu, wgpu::TextureFormat::Rgba8Unorm).expect("lavapipe runs the renderer");
     viewport.resolution_scale = 1.0;
     let mut h = harness(Editor::new(small_scene(dir.path())));
     wait_until(&mut h, "frame 0", |e| !e.timeline.is_empty() && !e.is_animating());
@@ -226,6 +228,53 @@ fn on_a_software_rasteriser_a_still_view_is_drawn_again_anti_aliased() {
         refine, software,
         "while the cloth simulates, new frames are drawn at one sample on a software rasteriser"
     );
+}
+
+#[test]
+fn the_viewport_blit_copies_its_image_texel_for_texel() {
+    use wgpu::util::DeviceExt;
+    let gpu = Gpu::headless().unwrap_or_else(|e| panic!("{e}"));
+    let (width, height) = (64, 32);
+    let texels: Vec<u8> = (0..width * height)
+        .flat_map(|i| [(i % width * 4) as u8, (i / width * 8) as u8, (i * 7 % 256) as u8, (i % 128 + 64) as u8])
+        .collect();
+    let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+    let texture = |usage| wgpu::TextureDescriptor {
+        label: None,
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage,
+        view_formats: &[],
+    };
+    let source = gpu.device.create_texture_with_data(
+        &gpu.queue,
+        &texture(wgpu::TextureUsages::TEXTURE_BINDING),
+        wgpu::util::TextureDataOrder::LayerMajor,
+        &texels,
+    );
+    let target =
+        gpu.device.create_texture(&texture(wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC));
+    let image = BlitPipeline::new(&gpu.device, wgpu::TextureFormat::Rgba8Unorm)
+        .image(&gpu.device, &source.create_view(&Default::default()));
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target.create_view(&Default::default()),
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::RED), store: wgpu::StoreOp::Store },
+            })],
+            ..Default::default()
+        });
+        image.draw(&mut pass);
+    }
+    gpu.queue.submit([encoder.finish()]);
+    let copied = read_texture(&gpu, &target, (width, height)).unwrap();
+    assert_eq!(copied.into_raw(), texels, "every texel lands on its pixel, unblended");
 }
 
 #[test]

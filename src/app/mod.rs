@@ -6,9 +6,11 @@
 //! streams whole frames back ([`worker::Command`] in, [`worker::Event`] out),
 //! so the window stays responsive at any cloth size. [`editor::Editor`] is the
 //! UI's state and behaviour without a window (UI tests drive it directly);
-//! [`panels`] lays it out; [`viewport`] renders the 3D view into a texture;
-//! [`window`] is the winit / wgpu / egui glue.
+//! [`panels`] lays it out; [`viewport`] renders the 3D view into a texture
+//! that [`blit`] copies into the window; [`window`] is the winit / wgpu / egui
+//! glue.
 
+pub mod blit;
 pub mod browse;
 pub mod editor;
 pub mod export;

@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use egui::{Align2, Color32, PointerButton, Rect, Sense, Ui, Vec2, pos2};
+use egui::{Align2, Color32, PointerButton, Rect, Sense, Ui, Vec2};
 
 use super::browse::Purpose;
 use super::editor::{Editor, Quality, RunState};
@@ -21,13 +21,13 @@ const FALLBACK_CAMERA: OrbitCamera =
 /// Draws the whole editor into `ui`. `viewport` is the texture the 3D view
 /// was rendered into (none without a GPU). Returns the viewport's size in
 /// physical pixels, for the next render.
-pub fn editor_ui(ui: &mut Ui, editor: &mut Editor, viewport: Option<egui::TextureId>) -> [u32; 2] {
+pub fn editor_ui(ui: &mut Ui, editor: &mut Editor, viewport_drawn: bool) -> [u32; 2] {
     egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, editor));
     egui::Panel::bottom("timeline").show(ui, |ui| timeline(ui, editor));
     egui::Panel::left("controls").resizable(true).default_size(340.0).show(ui, |ui| {
         egui::ScrollArea::vertical().show(ui, |ui| controls(ui, editor));
     });
-    let size = egui::CentralPanel::no_frame().show(ui, |ui| viewport_ui(ui, editor, viewport)).inner;
+    let size = egui::CentralPanel::no_frame().show(ui, |ui| viewport_ui(ui, editor, viewport_drawn)).inner;
     super::browse::show(ui.ctx(), editor);
     messages(ui.ctx(), editor);
     quit_question(ui.ctx(), editor);
@@ -456,16 +456,13 @@ fn timeline(ui: &mut Ui, editor: &mut Editor) {
     }
 }
 
-fn viewport_ui(ui: &mut Ui, editor: &mut Editor, texture: Option<egui::TextureId>) -> [u32; 2] {
+fn viewport_ui(ui: &mut Ui, editor: &mut Editor, drawn: bool) -> [u32; 2] {
     let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
     let painter = ui.painter_at(rect);
-    match texture {
-        Some(id) => {
-            painter.image(id, rect, Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0)), Color32::WHITE);
-        }
-        None => {
-            painter.rect_filled(rect, 0.0, Color32::from_gray(40));
-        }
+    if drawn {
+        painter.add(super::blit::viewport_image(rect));
+    } else {
+        painter.rect_filled(rect, 0.0, Color32::from_gray(40));
     }
     let framed = editor.framed.unwrap_or(FALLBACK_CAMERA);
     let delta = response.drag_delta();

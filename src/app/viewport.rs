@@ -1,5 +1,5 @@
 //! The editor's 3D view: the scene's [`Stage`] drawn by the PBR renderer into
-//! a texture that egui shows. It re-renders only when what it shows changed
+//! a texture that egui's render pass copies into the window ([`super::blit`]). It re-renders only when what it shows changed
 //! (frame, camera, lights, size, scene), so a software rasteriser keeps the
 //! UI responsive. On a software rasteriser it also draws half the window's
 //! resolution, and while the image changes (the cloth simulating or playing,
@@ -8,6 +8,7 @@
 
 use std::sync::Arc;
 
+use super::blit::BlitPipeline;
 use super::editor::Editor;
 use crate::render::{Gpu, OrbitCamera, RenderError, Renderer, TextureTarget};
 use crate::stage::Stage;
@@ -30,7 +31,7 @@ pub struct Viewport {
     renderer: Renderer,
     stage: Option<(u64, Stage)>,
     target: Option<TextureTarget>,
-    texture: Option<egui::TextureId>,
+    blit: BlitPipeline,
     /// What the last image shows, and whether it was anti-aliased.
     shown: Option<(Shown, bool)>,
     /// Whether images of a changing view are anti-aliased too (on a GPU).
@@ -40,17 +41,17 @@ pub struct Viewport {
 }
 
 impl Viewport {
-    /// A viewport on `gpu` (anti-aliased at full resolution on a GPU, see
-    /// the module's doc on a software rasteriser), or why the adapter cannot
-    /// render it.
-    pub fn new(gpu: &Gpu) -> Result<Viewport, RenderError> {
+    /// A viewport on `gpu` for a window of `surface_format` (anti-aliased at
+    /// full resolution on a GPU, see the module's doc on a software
+    /// rasteriser), or why the adapter cannot render it.
+    pub fn new(gpu: &Gpu, surface_format: wgpu::TextureFormat) -> Result<Viewport, RenderError> {
         let software = gpu.adapter_name.contains("llvmpipe") || gpu.adapter_name.contains("lavapipe");
         Ok(Viewport {
             gpu: gpu.clone(),
             renderer: Renderer::new(gpu)?,
             stage: None,
             target: None,
-            texture: None,
+            blit: BlitPipeline::new(&gpu.device, surface_format),
             shown: None,
             antialias_moving: !software,
             resolution_scale: if software { 0.5 } else { 1.0 },
@@ -68,13 +69,13 @@ impl Viewport {
         self.shown.as_ref().is_some_and(|(_, antialiased)| !antialiased)
     }
 
-    /// The texture of the last render, if any.
-    pub fn texture(&self) -> Option<egui::TextureId> {
-        self.texture
+    /// Whether there is an image for [`super::blit::viewport_image`] to draw.
+    pub fn has_image(&self) -> bool {
+        self.shown.is_some()
     }
 
     /// Renders the editor's current view at `size` physical pixels (scaled by
-    /// [`Self::resolution_scale`]) into the texture registered with `ui_renderer`,
+    /// [`Self::resolution_scale`]) into the image `ui_renderer` draws,
     /// when anything shown changed, or anti-aliased when it did not and the
     /// editor is still. Sets the editor's automatic framing.
     pub fn render(&mut self, editor: &mut Editor, size: [u32; 2], ui_renderer: &mut egui_wgpu::Renderer) {
@@ -95,15 +96,7 @@ impl Viewport {
         let scaled = size.map(|s| ((s as f32 * self.resolution_scale).round() as u32).clamp(1, 4096));
         if self.target.as_ref().is_none_or(|t| t.size != (scaled[0], scaled[1])) {
             let target = TextureTarget::new(&self.gpu, scaled[0], scaled[1]);
-            let filter = wgpu::FilterMode::Linear;
-            match self.texture {
-                Some(id) => {
-                    ui_renderer.update_egui_texture_from_wgpu_texture(&self.gpu.device, &target.encoded, filter, id)
-                }
-                None => {
-                    self.texture = Some(ui_renderer.register_native_texture(&self.gpu.device, &target.encoded, filter))
-                }
-            }
+            ui_renderer.callback_resources.insert(self.blit.image(&self.gpu.device, &target.encoded));
             self.target = Some(target);
         }
         let Some(target) = &self.target else { return };

@@ -179,7 +179,7 @@ impl Open {
         let context = egui::Context::default();
         let egui = egui_winit::State::new(context, egui::ViewportId::ROOT, &window, None, None, None);
         let painter = egui_wgpu::Renderer::new(&gpu.device, config.format, egui_wgpu::RendererOptions::default());
-        let viewport = Viewport::new(&gpu).map_err(|e| AppError::Graphics(e.to_string()))?;
+        let viewport = Viewport::new(&gpu, config.format).map_err(|e| AppError::Graphics(e.to_string()))?;
         Ok(Open {
             window,
             surface,
@@ -229,10 +229,10 @@ impl Open {
         self.viewport.render(&mut self.editor, self.viewport_size, &mut self.painter);
         let input = self.egui.take_egui_input(&self.window);
         let context = self.egui.egui_ctx().clone();
-        let texture = self.viewport.texture();
+        let drawn = self.viewport.has_image();
         let editor = &mut self.editor;
         let mut viewport_size = self.viewport_size;
-        let output = context.run_ui(input, |ui| viewport_size = editor_ui(ui, editor, texture));
+        let output = context.run_ui(input, |ui| viewport_size = editor_ui(ui, editor, drawn));
         self.viewport_size = viewport_size;
         self.egui.handle_platform_output(&self.window, output.platform_output);
         let jobs = context.tessellate(output.shapes, output.pixels_per_point);
