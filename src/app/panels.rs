@@ -18,8 +18,9 @@ use crate::scene::preset::Preset;
 const FALLBACK_CAMERA: OrbitCamera =
     OrbitCamera { target: glam::Vec3::ZERO, yaw_deg: 30.0, pitch_deg: 20.0, distance_m: 3.0, fov_y_deg: 27.0 };
 
-/// Draws the whole editor into `ui`. `viewport` is the texture the 3D view
-/// was rendered into (none without a GPU). Returns the viewport's size in
+/// Draws the whole editor into `ui`, with the 3D view's image
+/// ([`super::blit::viewport_image`]) when `viewport_drawn` (a grey area
+/// otherwise, e.g. in UI tests without a GPU). Returns the viewport's size in
 /// physical pixels, for the next render.
 pub fn editor_ui(ui: &mut Ui, editor: &mut Editor, viewport_drawn: bool) -> [u32; 2] {
     egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, editor));

@@ -1,7 +1,7 @@
 //! The editor's 3D view: the scene's [`Stage`] drawn by the PBR renderer into
-//! a texture that egui's render pass copies into the window ([`super::blit`]). It re-renders only when what it shows changed
-//! (frame, camera, lights, size, scene), so a software rasteriser keeps the
-//! UI responsive. On a software rasteriser it also draws half the window's
+//! a texture that egui's render pass copies into the window ([`super::blit`]).
+//! It re-renders only when what it shows changed (frame, camera, lights,
+//! size, scene), so a software rasteriser keeps the UI responsive. On a software rasteriser it also draws half the window's
 //! resolution, and while the image changes (the cloth simulating or playing,
 //! the camera moving) one sample per pixel: 4× MSAA there costs half of each
 //! render. Once the view is still it is drawn again, anti-aliased.
@@ -45,7 +45,7 @@ impl Viewport {
     /// full resolution on a GPU, see the module's doc on a software
     /// rasteriser), or why the adapter cannot render it.
     pub fn new(gpu: &Gpu, surface_format: wgpu::TextureFormat) -> Result<Viewport, RenderError> {
-        let software = gpu.adapter_name.contains("llvmpipe") || gpu.adapter_name.contains("lavapipe");
+        let software = gpu.software;
         Ok(Viewport {
             gpu: gpu.clone(),
             renderer: Renderer::new(gpu)?,

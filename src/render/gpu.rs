@@ -50,6 +50,9 @@ pub struct Gpu {
     /// The backend it runs on (Vulkan, Metal, Dx12; Gl only when asked for
     /// with `WGPU_BACKEND`).
     pub backend: wgpu::Backend,
+    /// Whether it rasterises on the CPU (lavapipe, llvmpipe), sharing the
+    /// cores with the solver.
+    pub software: bool,
 }
 
 /// The graphics APIs the renderer's shaders run on: Vulkan, Metal and DirectX
@@ -81,7 +84,8 @@ impl Gpu {
             ..Default::default()
         }))?;
         let info = adapter.get_info();
-        Ok(Gpu { device, queue, adapter_name: info.name, backend: info.backend })
+        let software = info.device_type == wgpu::DeviceType::Cpu;
+        Ok(Gpu { device, queue, adapter_name: info.name, backend: info.backend, software })
     }
 
     /// Runs `create` with the device's validation and internal errors
