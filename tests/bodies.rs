@@ -9,6 +9,10 @@ use nalgebra::Vector3;
 
 const FPS: f64 = 30.0;
 
+/// Fastest a walking body's centre moves forward between frames, m/s: a brisk
+/// walk is ~1.5 m/s.
+const MAX_WALKING_SPEED: f64 = 2.5;
+
 fn repo(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
 }
@@ -84,6 +88,13 @@ fn the_walk_keeps_a_foot_on_the_ground_and_travels_forward() {
     assert!(feet.iter().any(|f| f.0 > 0.05) && feet.iter().any(|f| f.1 > 0.05));
     let travelled = feet.last().unwrap().2 - feet[0].2;
     assert!(travelled > 2.0, "the body walks forward (+Z): {travelled:.2} m");
+    // The planted foot carries the body forward smoothly: it never steps
+    // back (the root once jumped 10 cm back at every step, where the lowest
+    // point of the stance foot passed from its heel to its ball).
+    for (frame, pair) in feet.windows(2).enumerate() {
+        let speed = (pair[1].2 - pair[0].2) * FPS;
+        assert!((0.0..MAX_WALKING_SPEED).contains(&speed), "frame {frame}: the body moves at {speed:.2} m/s");
+    }
 
     let in_place = read_fbx(&repo("assets/bodies/female_walk_inplace.fbx")).unwrap();
     let feet = feet_over_time(&in_place, in_place.motion.as_ref().unwrap());

@@ -276,40 +276,49 @@ def foot_vertex_ids(body):
     return ids
 
 
-def lowest_points(body, feet):
-    """Per foot, the lowest evaluated vertex (world space)."""
+def evaluated_positions(body):
+    """Every vertex of the evaluated (skinned) body, world space."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
     evaluated = body.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
     world = body.matrix_world
-    lowest = {side: min((world @ mesh.vertices[i].co for i in ids), key=lambda p: p.z) for side, ids in feet.items()}
+    positions = [world @ v.co for v in mesh.vertices]
     evaluated.to_mesh_clear()
-    return lowest
+    return positions
+
+
+def lowest_points(positions, feet):
+    """Per foot, the index of its lowest vertex."""
+    return {side: min(ids, key=lambda i: positions[i].z) for side, ids in feet.items()}
 
 
 def animate(body, armature, travel):
     """Keys every frame: rotations, then the root so that the lower foot rests
-    on the ground and (when travelling) does not slide."""
+    on the ground and (when travelling) does not slide: the vertex the body
+    stood on in the previous frame stays where it was. (Following the lowest
+    point instead made the body jump back by a heel's length at every step,
+    where that point passed from the heel to the ball of the foot.)"""
     bpy.context.view_layer.objects.active = armature
     for pb in armature.pose.bones:
         pb.rotation_mode = "QUATERNION"
     feet = foot_vertex_ids(body)
     root = armature.pose.bones["Root"]
-    forward, previous = 0.0, None
+    forward, contact = 0.0, None
     for frame in range(FRAMES):
         t = frame / FPS
         bpy.context.scene.frame_set(frame)
         pose_frame(armature, t)
         root.location = Vector()
         bpy.context.view_layer.update()
-        lowest = lowest_points(body, feet)
-        stance = min(lowest, key=lambda side: lowest[side].z)
-        if previous is not None and travel:
-            # The stance foot moves back relative to the body as much as the body moves forward.
-            forward += lowest[previous[0]].y - previous[1]
-        previous = (stance, lowest[stance].y)
+        positions = evaluated_positions(body)
+        lowest = lowest_points(positions, feet)
+        stance = min(lowest.values(), key=lambda i: positions[i].z)
+        if contact is not None and travel:
+            # The contact moves back relative to the body as much as the body moves forward.
+            forward += positions[contact[0]].y - contact[1]
+        contact = (stance, positions[stance].y)
         sway = 0.02 * math.sin(2.0 * math.pi * t / CYCLE_S)
-        offset = Vector((sway, -forward, -lowest[stance].z))
+        offset = Vector((sway, -forward, -positions[stance].z))
         root.matrix = Matrix.Translation(offset) @ root.bone.matrix_local
         bpy.context.view_layer.update()
         for pb in armature.pose.bones:
