@@ -219,8 +219,10 @@ fn a_motion_cache_plays_the_body_it_was_made_from() {
 /// The projections between collision passes keep the cloth off the body, and
 /// a step that raises the largest strain by more than 25 points is retried
 /// shorter (one such step here): the largest strain at a frame end stays
-/// under 45 % (31 % measured; 79 % at frame 42 without the retries, in a
-/// bake before the strain projection's factor was mended).
+/// under 20 % (13.7 % measured, the waistband ring stretched by the skin it
+/// is glued to; 32 % where the body blended into the walk in 0.5 s, 79 % at
+/// frame 42 without the retries, in a bake before the strain projection's
+/// factor was mended).
 #[test]
 fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
     let scene = drape::scene::Scene::load(&repo("assets/scenes/skirt_walk.toml")).unwrap();
@@ -233,7 +235,7 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
         let i = &record.intersections;
         assert_eq!((i.cloth_pairs, i.collider_pairs, i.penetrating_vertices), (0, 0, 0), "frame {}", record.frame);
         assert!(
-            record.max_strain < 0.45,
+            record.max_strain < 0.2,
             "frame {}: the hem snagged, {:.0} % strain",
             record.frame,
             record.max_strain * 100.0
@@ -246,8 +248,9 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
 /// The walk played three times as fast (SCENES.md's `fast_body`): the skirt
 /// stays outside the body at every frame end. Here legs cross the hem faster
 /// than the impulse passes resolve it, and the steps that snag the hem are
-/// retried shorter, which keeps the largest strain under 60 % (44 %
-/// measured; 54 % when only steps with skin impact zones were retried).
+/// retried shorter, which keeps the largest strain under 60 % (50 %
+/// measured; 54 % when only steps with skin impact zones were retried, on a
+/// walk that still stepped back at every step).
 #[test]
 fn fast_body_keeps_the_skirt_outside_the_body_and_retries_the_steps_that_snag_it() {
     let scene = drape::scene::Scene::load(&repo("assets/scenes/fast_body.toml")).unwrap();
