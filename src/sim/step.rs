@@ -797,13 +797,20 @@ impl Simulator {
             let (contacts, resting_on) = (&mut self.ws.contacts, &mut self.resting_on);
             let before_projection = &mut self.ws.before_projection;
             let holds = &mut self.ws.holds;
+            // Limits that pins make unreachable (the first projection
+            // stalled) are still approached after every pass, keeping
+            // partial results; a stall without pins (cloth tented on a
+            // sharp apex) leaves the passes unprojected, as the partial
+            // projections stretched `pillars`' cone apex further.
+            let pulled_apart = projection.stalled && !self.pins.is_empty();
             let mut after_pass = |pass: PassState| {
                 let mut projected = false;
                 before_projection.clear();
                 if let Some(limits) = limits.as_mut()
                     && pass.stage == ResponseStage::Impulses
                 {
-                    let gave_up = projection.abandoned || projection.stalled || projection.fell_back;
+                    let stalled = projection.stalled && !pulled_apart;
+                    let gave_up = projection.abandoned || stalled || projection.fell_back;
                     if !gave_up && limits.excess_strain(pass.end) > STRAIN_TOLERANCE {
                         before_projection.extend_from_slice(pass.end);
                         holds.clear();
@@ -814,7 +821,11 @@ impl Simulator {
                                 .filter_map(|(i, n)| n.try_normalize(PUSH_SUM_MIN).map(|n| (i as u32, n))),
                         );
                         let state = ProjectedState { x: pass.end, v: pass.velocity, constraints, mass, h };
-                        let report = limits.project_holding(state, holds);
+                        let report = if pulled_apart {
+                            limits.project_partial(state, holds)
+                        } else {
+                            limits.project_holding(state, holds)
+                        };
                         projection.add(&report);
                         projected = !report.abandoned;
                     }
