@@ -459,8 +459,8 @@ fn start_bake<'a>(
 /// Prints a bake's last lines: speed, effort, strain, contacts, rollbacks.
 fn print_bake_summary(summary: &BakeSummary, scene: &Scene, out: &Path) {
     println!(
-        "{} frames of '{}' in {}: median {:.1} ms/frame on {} threads, {:.1} CG iterations/step, max strain {:.2} %, \
-         at most {} particle-collider and {} triangle contacts",
+        "{} frames of '{}' in {}: median {:.1} ms/frame on {} threads, {:.1} CG iterations/step, max strain {:.2} % \
+         ({:.2} % where not pinned at both ends), at most {} particle-collider and {} triangle contacts",
         summary.frames,
         scene.name,
         out.display(),
@@ -468,6 +468,7 @@ fn print_bake_summary(summary: &BakeSummary, scene: &Scene, out: &Path) {
         summary.threads,
         summary.cg_iterations_per_step_mean,
         summary.max_strain * 100.0,
+        summary.max_free_strain * 100.0,
         summary.contacts_max,
         summary.triangle_contacts_max,
     );

@@ -458,6 +458,49 @@ fn a_fabric_change_mid_run_blends_in_without_a_jerk() {
     assert_eq!(sim.set_fabric(3, denim_fabric).unwrap_err().to_string(), "there is no garment 3 (the scene has 1)");
 }
 
+/// A cotton curtain whose top row is pinned in two halves, the right half
+/// carried 1 cm to the right over a second: the edge between the halves is
+/// as long as its pins make it (20 % strain, what `max_strain` reports),
+/// while every edge with a free end stays within cotton's 1 % limit (what
+/// `max_free_strain` reports) at every step. (At 5 cm no placement of the
+/// row below meets the limits: its quad's diagonal to the far pin would be
+/// at least 6 % long.)
+#[test]
+fn strain_between_two_pins_is_reported_apart_from_the_cloths_own() {
+    let s = scene(
+        r#"
+        [time]
+        duration_s = 1.0
+        [solver]
+        steps_per_frame = 2
+        [[garment]]
+        name = "cloth"
+        preset = "cotton"
+        mesh = { grid = { size_m = 0.5, resolution = 11 } }
+        translation_m = [0.0, 1.0, 0.0]
+        rotation_deg = [90.0, 0.0, 0.0]
+        [[garment.pin]]
+        region = { min_m = [-0.26, -1.0, -0.26], max_m = [0.01, 1.0, -0.24] }
+        [[garment.pin]]
+        region = { min_m = [0.04, -1.0, -0.26], max_m = [0.26, 1.0, -0.24] }
+        motion = { velocity_m_per_s = [0.01, 0.0, 0.0], end_s = 1.0 }
+        "#,
+    );
+    assert_eq!(s.garments[0].pins.len(), 11, "the top row, in two halves");
+    let mut sim = s.simulator().unwrap();
+    let h = s.step_duration();
+    let mut report = None;
+    for _ in 0..s.frame_count * s.steps_per_frame as usize {
+        let step = sim.step(h).unwrap();
+        assert!(step.max_free_strain <= 0.0101, "the cloth's own strain {}: {:?}", step.max_free_strain, step.projection);
+        assert!(step.max_free_strain <= step.max_strain);
+        report = Some(step);
+    }
+    let last = report.expect("steps ran");
+    assert!((last.max_strain - 0.2).abs() < 1e-3, "the edge between the halves: {}", last.max_strain);
+    assert!(last.max_free_strain > 0.009, "the free cloth below the gap is pulled taut: {}", last.max_free_strain);
+}
+
 /// A cloth glued by its top row to a moving mesh collider (a plate sliding
 /// at 0.3 m/s and turning 90° per second): every glued particle ends every
 /// step exactly at its barycentric point of the moved plate, held the

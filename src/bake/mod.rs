@@ -44,6 +44,10 @@ pub struct FrameRecord {
     pub projection_fallbacks: u32,
     /// Largest stretch (l − l₀) / l₀ of a stretch spring at the end of the frame.
     pub max_strain: f64,
+    /// The same over the stretch springs not pinned at both ends: the
+    /// cloth's own strain, which the solver controls.
+    #[serde(default)]
+    pub max_free_strain: f64,
     /// Mean stretch strain at the end of the frame.
     pub mean_strain: f64,
     /// Most particle-collider contacts in one of the frame's steps.
@@ -170,6 +174,7 @@ impl Baker {
                 record.projection_cg_iterations += step.projection.cg_iterations;
                 record.projection_fallbacks += u32::from(step.projection.fell_back);
                 record.max_strain = step.max_strain;
+                record.max_free_strain = step.max_free_strain;
                 record.mean_strain = step.mean_strain;
                 let c = &step.collision;
                 record.triangle_contacts += c.contacts;
