@@ -3,8 +3,8 @@
 //! A step that fails — a non-finite value, a linear solve that did not
 //! converge, a largest strain past the blow-up bound that more than doubled
 //! in the step, crossings the collision pipeline could not resolve, or,
-//! beside a moving body, a rise of the largest strain by more than the snag
-//! strain — is rolled back to the state before it and retried as two
+//! beside a moving body, a rise of the cloth's own largest strain (over the
+//! edges not pinned at both ends) by more than the snag strain — is rolled back to the state before it and retried as two
 //! steps of half the length, down to a floor of `nominal / 2^max_halvings`.
 //! After a step succeeds the length doubles again, back to the nominal
 //! step. When even the floor fails, advancing stops with the time, the step
@@ -63,10 +63,11 @@ pub enum StepFailure {
         /// The bound, unitless.
         bound: f64,
     },
-    /// A step beside a moving body raised the cloth's largest strain by more
-    /// than the snag strain: the body carried some particles away from their
-    /// neighbours faster than the step's collision response and strain
-    /// projection could follow.
+    /// A step beside a moving body raised the cloth's own largest strain
+    /// (over the edges not pinned at both ends) by more than the snag
+    /// strain: the body carried some particles away from their neighbours
+    /// faster than the step's collision response and strain projection
+    /// could follow.
     #[error("it stretched the cloth from {:.0} % to {:.0} % strain (at most {:.0} points more)", before * 100.0, after * 100.0, bound * 100.0)]
     Snagged {
         /// The largest strain before the step, unitless.
@@ -97,9 +98,11 @@ pub struct AdaptiveSettings {
     /// step, unitless: a cloth that diverges does; one that pins wring a
     /// little further each step past the blow-up strain does not.
     pub blow_up_growth: f64,
-    /// The most a step beside a moving body may raise the cloth's largest
-    /// strain by, unitless (0.25 = 25 points of strain), while the step has
-    /// been halved fewer than [`Self::snag_halvings`] times.
+    /// The most a step beside a moving body may raise the cloth's own
+    /// largest strain by (over the edges not pinned at both ends: a
+    /// waistband glued to skin stretches with it), unitless (0.25 = 25
+    /// points of strain), while the step has been halved fewer than
+    /// [`Self::snag_halvings`] times.
     pub snag_strain: f64,
     /// Halvings a step may take to stay under [`Self::snag_strain`] (3: down
     /// to 1/8); fewer than `max_halvings`.
@@ -202,12 +205,14 @@ pub struct Stepper {
     checkpoint: Checkpoint,
     /// The largest strain at the start of the step under way, unitless.
     start_strain: f64,
+    /// The largest strain then of a stretch edge not pinned at both ends, unitless.
+    start_free_strain: f64,
 }
 
 impl Stepper {
     /// A stepper whose normal step is `nominal_s` seconds.
     pub fn new(nominal_s: f64, settings: AdaptiveSettings) -> Self {
-        Stepper { nominal_s, settings, checkpoint: Checkpoint::default(), start_strain: 0.0 }
+        Stepper { nominal_s, settings, checkpoint: Checkpoint::default(), start_strain: 0.0, start_free_strain: 0.0 }
     }
 
     /// Advances `sim` by `steps` nominal steps, handing each accepted step's
@@ -223,14 +228,14 @@ impl Stepper {
         let mut units_left = u64::from(steps) * finest;
         let mut halvings = 0;
         let mut advance = Advance { shortest_step_s: self.nominal_s, ..Advance::default() };
-        self.start_strain = sim.largest_strain();
+        (self.start_strain, self.start_free_strain) = (sim.largest_strain(), sim.largest_free_strain());
         while units_left > 0 {
             let units = finest >> halvings;
             let h = self.nominal_s / (1u64 << halvings) as f64;
             sim.checkpoint(&mut self.checkpoint);
             match self.attempt(sim, h, halvings) {
                 Ok(report) => {
-                    self.start_strain = report.max_strain;
+                    (self.start_strain, self.start_free_strain) = (report.max_strain, report.max_free_strain);
                     on_step(&report);
                     advance.steps += 1;
                     advance.shortest_step_s = advance.shortest_step_s.min(h);
@@ -268,10 +273,11 @@ impl Stepper {
         if report.collision.unresolved > 0 {
             return Err(StepFailure::Crossings { count: report.collision.unresolved });
         }
-        // Only a moving body snags cloth.
-        let bound = settings.snag_strain;
-        if sim.has_animated_bodies() && report.max_strain - before > bound && halvings < settings.snag_halvings {
-            return Err(StepFailure::Snagged { before, after: report.max_strain, bound });
+        // Only a moving body snags cloth; the edges between two pins stretch
+        // as the pins make them, which no shorter step changes.
+        let (bound, before, after) = (settings.snag_strain, self.start_free_strain, report.max_free_strain);
+        if sim.has_animated_bodies() && after - before > bound && halvings < settings.snag_halvings {
+            return Err(StepFailure::Snagged { before, after, bound });
         }
         Ok(report)
     }

@@ -1065,16 +1065,23 @@ impl Simulator {
         parallel::max(stretch.len(), |k| spring_strain(cloth, x, stretch[k]).max(0.0))
     }
 
+    /// [`Self::largest_strain`] over the stretch springs with an end that is
+    /// not pinned: what [`StepReport::max_free_strain`] reports.
+    pub fn largest_free_strain(&self) -> f64 {
+        let (cloth, x, stretch, fixed) = (&self.cloth, &self.x, &self.stretch_springs, &self.fixed);
+        parallel::max(stretch.len(), |k| {
+            let [a, b] = cloth.spring_ends[stretch[k] as usize];
+            if fixed[a as usize] && fixed[b as usize] { 0.0 } else { spring_strain(cloth, x, stretch[k]).max(0.0) }
+        })
+    }
+
     /// Writes the stretch springs' strains into `report`: the largest
     /// (l − l₀) / l₀, the largest of those not pinned at both ends, and the
     /// mean |l − l₀| / l₀.
     fn measure_strain(&mut self, report: &mut StepReport) {
         report.max_strain = self.largest_strain();
-        let (cloth, x, stretch, fixed) = (&self.cloth, &self.x, &self.stretch_springs, &self.fixed);
-        report.max_free_strain = parallel::max(stretch.len(), |k| {
-            let [a, b] = cloth.spring_ends[stretch[k] as usize];
-            if fixed[a as usize] && fixed[b as usize] { 0.0 } else { spring_strain(cloth, x, stretch[k]).max(0.0) }
-        });
+        report.max_free_strain = self.largest_free_strain();
+        let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
         let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| spring_strain(cloth, x, stretch[k]).abs());
         report.mean_strain = total / stretch.len().max(1) as f64;
     }
