@@ -15,6 +15,26 @@ fn scene(text: &str) -> Scene {
     Scene::parse(text, "test", Path::new("."), "test scene").unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// A 1 s scene of a 0.5 m cotton square (11 × 11 vertices) hanging in the
+/// XY plane, its top edge at `top_m` (m), its top row's mesh coordinates at
+/// z = −0.25, followed by `pins_and_colliders` (TOML).
+fn curtain(top_m: f64, pins_and_colliders: &str) -> String {
+    format!(
+        r#"
+        [time]
+        duration_s = 1.0
+        [solver]
+        steps_per_frame = 2
+        [[garment]]
+        name = "cloth"
+        preset = "cotton"
+        mesh = {{ grid = {{ size_m = 0.5, resolution = 11 }} }}
+        translation_m = [0.0, {top_m:?}, 0.0]
+        rotation_deg = [90.0, 0.0, 0.0]
+        {pins_and_colliders}"#
+    )
+}
+
 fn standard(name: &str) -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes").join(format!("{name}.toml"))
 }
@@ -467,32 +487,26 @@ fn a_fabric_change_mid_run_blends_in_without_a_jerk() {
 /// at least 6 % long.)
 #[test]
 fn strain_between_two_pins_is_reported_apart_from_the_cloths_own() {
-    let s = scene(
-        r#"
-        [time]
-        duration_s = 1.0
-        [solver]
-        steps_per_frame = 2
-        [[garment]]
-        name = "cloth"
-        preset = "cotton"
-        mesh = { grid = { size_m = 0.5, resolution = 11 } }
-        translation_m = [0.0, 1.0, 0.0]
-        rotation_deg = [90.0, 0.0, 0.0]
+    let pins = r#"
         [[garment.pin]]
         region = { min_m = [-0.26, -1.0, -0.26], max_m = [0.01, 1.0, -0.24] }
         [[garment.pin]]
         region = { min_m = [0.04, -1.0, -0.26], max_m = [0.26, 1.0, -0.24] }
         motion = { velocity_m_per_s = [0.01, 0.0, 0.0], end_s = 1.0 }
-        "#,
-    );
+        "#;
+    let s = scene(&curtain(1.0, pins));
     assert_eq!(s.garments[0].pins.len(), 11, "the top row, in two halves");
     let mut sim = s.simulator().unwrap();
     let h = s.step_duration();
     let mut report = None;
     for _ in 0..s.frame_count * s.steps_per_frame as usize {
         let step = sim.step(h).unwrap();
-        assert!(step.max_free_strain <= 0.0101, "the cloth's own strain {}: {:?}", step.max_free_strain, step.projection);
+        assert!(
+            step.max_free_strain <= 0.0101,
+            "the cloth's own strain {}: {:?}",
+            step.max_free_strain,
+            step.projection
+        );
         assert!(step.max_free_strain <= step.max_strain);
         report = Some(step);
     }
@@ -521,17 +535,7 @@ fn glued_vertices_follow_their_point_on_a_moving_mesh() {
         obj += &format!("f {a} {} {} {b}\n", a + 1, b + 1);
     }
     std::fs::write(dir.join("plate.obj"), obj).unwrap();
-    let text = r#"
-        [time]
-        duration_s = 1.0
-        [solver]
-        steps_per_frame = 2
-        [[garment]]
-        name = "cloth"
-        preset = "cotton"
-        mesh = { grid = { size_m = 0.5, resolution = 11 } }
-        translation_m = [0.0, 0.74, 0.0]
-        rotation_deg = [90.0, 0.0, 0.0]
+    let glued = r#"
         [[garment.pin]]
         region = { min_m = [-1.0, -1.0, -0.26], max_m = [1.0, 1.0, -0.24] }
         attach = "plate"
@@ -541,7 +545,7 @@ fn glued_vertices_follow_their_point_on_a_moving_mesh() {
         position_m = [0.0, 1.0, 0.0]
         motion = { velocity_m_per_s = [0.3, 0.0, 0.0], angular_velocity_deg_per_s = [0.0, 90.0, 0.0] }
         "#;
-    let s = Scene::parse(text, "glue", &dir, "glue scene").unwrap_or_else(|e| panic!("{e}"));
+    let s = Scene::parse(&curtain(0.74, glued), "glue", &dir, "glue scene").unwrap_or_else(|e| panic!("{e}"));
     let thickness = s.garments[0].fabric.thickness_m;
     let plate = s.mesh_colliders[0].clone();
     let glued: Vec<(usize, u32, [f64; 3], Vector3<f64>)> = s.garments[0]
