@@ -401,8 +401,8 @@ pub fn csv(results: &[BenchResult]) -> String {
     for stage in stage_names() {
         let _ = write!(out, ",{stage}_ms");
     }
-    out += ",cg_iterations_per_step,max_strain,max_free_strain,contacts_max,collision_tests,collision_tests_without_ownership,\
-            impact_zone_steps,intersections_total,penetrations_total,projection_iterations_per_step,\
+    out += ",cg_iterations_per_step,max_strain,max_free_strain,contacts_max,collision_tests,\
+            collision_tests_without_ownership,impact_zone_steps,intersections_total,penetrations_total,projection_iterations_per_step,\
             projection_fallbacks,rollbacks,peak_memory_mib,error_contact_window,error_end\n";
     for r in results {
         let s = &r.summary;

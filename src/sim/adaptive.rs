@@ -4,8 +4,9 @@
 //! converge, a largest strain past the blow-up bound that more than doubled
 //! in the step, crossings the collision pipeline could not resolve, or,
 //! beside a moving body, a rise of the cloth's own largest strain (over the
-//! edges not pinned at both ends) by more than the snag strain — is rolled back to the state before it and retried as two
-//! steps of half the length, down to a floor of `nominal / 2^max_halvings`.
+//! edges not pinned at both ends) by more than the snag strain — is rolled
+//! back to the state before it and retried as two steps of half the length,
+//! down to a floor of `nominal / 2^max_halvings`.
 //! After a step succeeds the length doubles again, back to the nominal
 //! step. When even the floor fails, advancing stops with the time, the step
 //! and the cause, and the simulator keeps the last good state: a user never
@@ -228,7 +229,7 @@ impl Stepper {
         let mut units_left = u64::from(steps) * finest;
         let mut halvings = 0;
         let mut advance = Advance { shortest_step_s: self.nominal_s, ..Advance::default() };
-        (self.start_strain, self.start_free_strain) = (sim.largest_strain(), sim.largest_free_strain());
+        (self.start_strain, self.start_free_strain) = sim.largest_strains();
         while units_left > 0 {
             let units = finest >> halvings;
             let h = self.nominal_s / (1u64 << halvings) as f64;

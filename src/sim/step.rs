@@ -814,8 +814,7 @@ impl Simulator {
                 if let Some(limits) = limits.as_mut()
                     && pass.stage == ResponseStage::Impulses
                 {
-                    let stalled = projection.stalled && !pulled_apart;
-                    let gave_up = projection.abandoned || stalled || projection.fell_back;
+                    let gave_up = projection.abandoned || projection.fell_back || (projection.stalled && !pulled_apart);
                     if !gave_up && limits.excess_strain(pass.end) > STRAIN_TOLERANCE {
                         before_projection.extend_from_slice(pass.end);
                         holds.clear();
@@ -1065,9 +1064,20 @@ impl Simulator {
         parallel::max(stretch.len(), |k| spring_strain(cloth, x, stretch[k]).max(0.0))
     }
 
+    /// The largest strain now and the largest over the stretch springs with
+    /// an end that is not pinned, unitless: what a step's report would say.
+    pub fn largest_strains(&self) -> (f64, f64) {
+        let largest = self.largest_strain();
+        (largest, self.largest_free_strain_or(largest))
+    }
+
     /// [`Self::largest_strain`] over the stretch springs with an end that is
-    /// not pinned: what [`StepReport::max_free_strain`] reports.
-    pub fn largest_free_strain(&self) -> f64 {
+    /// not pinned: what [`StepReport::max_free_strain`] reports. Without
+    /// pins it is the largest strain, and `largest` is returned as it is.
+    fn largest_free_strain_or(&self, largest: f64) -> f64 {
+        if self.pins.is_empty() {
+            return largest;
+        }
         let (cloth, x, stretch, fixed) = (&self.cloth, &self.x, &self.stretch_springs, &self.fixed);
         parallel::max(stretch.len(), |k| {
             let [a, b] = cloth.spring_ends[stretch[k] as usize];
@@ -1080,7 +1090,7 @@ impl Simulator {
     /// mean |l − l₀| / l₀.
     fn measure_strain(&mut self, report: &mut StepReport) {
         report.max_strain = self.largest_strain();
-        report.max_free_strain = self.largest_free_strain();
+        report.max_free_strain = self.largest_free_strain_or(report.max_strain);
         let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
         let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| spring_strain(cloth, x, stretch[k]).abs());
         report.mean_strain = total / stretch.len().max(1) as f64;
