@@ -13,7 +13,9 @@ use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_wi
 use super::features::Ownership;
 use super::obstacles::Obstacles;
 use super::pair_sort::PairSorter;
+use super::partners::Partners;
 use super::response::{Contact, ContactKind};
+use super::speculate::leaf_margin;
 use super::{CollisionPipeline, CollisionReport, ParticleCollision, Workspace, speculate};
 use crate::sim::contact::StepWindow;
 
@@ -124,7 +126,9 @@ impl CollisionPipeline {
     /// the last detection and the workspace's `moved_triangle`s are boxed
     /// again: every other path, and so every other box, is as it was. After
     /// a speculation (`speculated`) only the leaves of the triangles that
-    /// escaped their speculative boxes are updated.
+    /// escaped their speculative boxes are updated, and so, in the step's
+    /// later detections, are only those of the moved triangles that left
+    /// their leaves (see [`super::partners`]).
     fn refit(&mut self, only_moved: bool, speculated: bool) {
         let ws = &mut self.ws;
         let (start, end, shift) = (&ws.start, &ws.end, ws.shift);
@@ -163,7 +167,17 @@ impl CollisionPipeline {
             ws.feature_box[t] = FeatureBoxes::of(self.triangles[t], &ws.node_box);
             ws.triangle_box[t] = ws.feature_box[t].whole();
         }
-        bvh.update_leaves(&ws.triangle_box, ws.moved_list.iter().map(|&t| t as usize));
+        if !ws.partners.valid() {
+            bvh.update_leaves(&ws.triangle_box, ws.moved_list.iter().map(|&t| t as usize));
+            return;
+        }
+        // Only the triangles that left their leaves get new ones.
+        let (leaf_box, real) = (&ws.leaf_box, &ws.triangle_box);
+        ws.escaping.clear();
+        ws.escaping.extend(ws.moved_list.iter().filter(|&&t| !leaf_box[t as usize].contains(&real[t as usize])));
+        let margin = leaf_margin(&self.triangles, &self.particles);
+        let boxes = (&ws.triangle_box[..], &mut ws.leaf_box[..]);
+        ws.partners.re_leaf(&ws.escaping, boxes, margin, bvh, &mut ws.hits);
     }
 
     /// Boxes, broad phase and narrow phase over `scope`: fills the
@@ -183,6 +197,9 @@ impl CollisionPipeline {
             ws.moved_list.extend(moved_triangle.map(|(t, _)| t as u32));
         }
         let speculated = !moved && std::mem::take(&mut ws.speculative);
+        if !moved && !speculated {
+            ws.partners.invalidate();
+        }
         self.refit(moved, speculated);
         let ws = &mut self.ws;
         report.refit += clock.elapsed();
@@ -203,6 +220,13 @@ impl CollisionPipeline {
         let near = if sharp { boxes.fold(Box3::empty(), |all, (_, b)| all.union(b)) } else { Box3::empty() };
         if cloth_pairs {
             match moved {
+                true if ws.partners.valid() => listed_pairs(
+                    bvh,
+                    (&ws.triangle_box, &ws.moved_triangle, &ws.moved_list),
+                    &ws.partners,
+                    (&mut ws.query_chunks, &mut ws.pair_sorter),
+                    &mut ws.pairs,
+                ),
                 true => moved_pairs(
                     bvh,
                     &ws.triangle_box,
@@ -305,7 +329,17 @@ impl CollisionPipeline {
 /// speculation's pairs with those of the escaped cloth triangles (marked as
 /// moved).
 fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved: bool, speculated: bool) {
-    if moved || speculated {
+    if moved && ws.partners.valid() {
+        let (cloth_box, partners) = (&ws.triangle_box, &ws.partners);
+        parallel_queries(&ws.moved_list, &mut ws.query_chunks, &mut ws.mesh_pairs, |h, hits, pairs| {
+            if partners.queried(h) {
+                obstacles.overlapping(&cloth_box[h as usize], hits);
+                pairs.extend(hits.iter().map(|&t| (t, h)));
+            } else {
+                pairs.extend(partners.obstacles_of(h).iter().map(|&t| (t, h)));
+            }
+        });
+    } else if moved || speculated {
         let cloth_box = &ws.triangle_box;
         parallel_queries(&ws.moved_list, &mut ws.query_chunks, &mut ws.mesh_pairs, |h, hits, pairs| {
             obstacles.overlapping(&cloth_box[h as usize], hits);
@@ -396,6 +430,30 @@ pub(super) fn moved_pairs(
         pairs.extend(hits.iter().filter(|&&h| wanted(h)).map(|&h| (a.min(h), a.max(h))));
     });
     sorter.sort(out);
+}
+
+/// [`moved_pairs`] from the triangles' leaf partners: a moved triangle
+/// still inside its leaf reads its list, one queried since it left its leaf
+/// queries the hierarchy (see [`super::partners`]). The triangles' real
+/// `boxes`, which are `moved` and their list come first.
+fn listed_pairs(
+    bvh: &SweptBvh,
+    (boxes, moved, moved_list): (&[Box3], &[bool], &[u32]),
+    partners: &Partners,
+    (chunks, sorter): (&mut Vec<QueryChunk>, &mut PairSorter),
+    out: &mut Vec<(u32, u32)>,
+) {
+    parallel_queries(moved_list, chunks, out, |a, hits, pairs| {
+        let wanted = |h: u32| h != a && (!moved[h as usize] || a < h) && boxes[h as usize].overlaps(&boxes[a as usize]);
+        if partners.queried(a) {
+            bvh.overlapping(&boxes[a as usize], hits);
+            pairs.extend(hits.iter().filter(|&&h| wanted(h)).map(|&h| (a.min(h), a.max(h))));
+        } else {
+            pairs.extend(partners.cloth_of(a).filter(|&h| wanted(h)).map(|h| (a.min(h), a.max(h))));
+        }
+    });
+    sorter.sort(out);
+    out.dedup();
 }
 
 /// Moved triangles per parallel task of a broad-phase query.

@@ -37,6 +37,7 @@ pub mod features;
 pub mod geometry;
 pub mod obstacles;
 mod pair_sort;
+mod partners;
 pub mod response;
 mod speculate;
 mod zones;
@@ -270,14 +271,20 @@ struct Workspace {
     /// The cloth's boxes and pairs were speculated for this step, and its
     /// first detection has yet to confirm them (see [`speculate`]).
     speculative: bool,
-    /// Per cloth triangle: its box over the step from the predicted ends.
-    speculative_box: Vec<Box3>,
+    /// Per cloth triangle, after a speculation: its hierarchy leaf's box,
+    /// over the step from the predicted ends, or, once the triangle
+    /// escaped it, its real box grown by the same margin.
+    leaf_box: Vec<Box3>,
     /// Self pairs of the speculative boxes, sorted.
     speculative_pairs: Vec<(u32, u32)>,
     /// `(obstacle triangle, cloth triangle)` pairs of the speculative boxes.
     speculative_mesh_pairs: Vec<(u32, u32)>,
     /// Self pairs of the escaped triangles' queries.
     escaped_pairs: Vec<(u32, u32)>,
+    /// The moved triangles whose real boxes left their leaves this detection.
+    escaping: Vec<u32>,
+    /// Each cloth triangle's leaf partners, for the step's later detections.
+    partners: partners::Partners,
     /// End positions before the pass hook, to see which it moved.
     before_hook: Vec<Vector3<f64>>,
     /// Cloth points the pass hook moved after an impact-zone round (pushed
@@ -867,6 +874,56 @@ mod tests {
         assert!(unspeculated.2 > 1, "several passes: {}", unspeculated.2);
         for (prediction, name) in PREDICTIONS {
             assert!(resolve(Some(prediction)) == unspeculated, "{name}");
+        }
+    }
+
+    /// After a speculated first detection, later detections read the moved
+    /// triangles' leaf partners instead of querying the hierarchy; they
+    /// find the same pairs, body pairs and contacts, in the same order, as
+    /// the queries of an unspeculated step, pass after pass: when the
+    /// response moved the points a little (each triangle stays in its
+    /// leaf), further than the margin (they escape, get new leaves and are
+    /// queried from then on), and then only points away from those (their
+    /// triangles must find the escaped ones in their lists).
+    #[test]
+    fn later_detections_from_leaf_partners_find_what_queries_find() {
+        let passes = |prediction: Option<Prediction>| {
+            let (mut pipeline, _) = speculated(2.0, prediction);
+            pipeline.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
+            let n = pipeline.particles.len();
+            let mut far_moved = vec![false; n];
+            let mut found = Vec::new();
+            for (pass, stride, reach) in [(1, 4, 0.001), (2, 29, 0.2), (3, 3, 0.0005)] {
+                let ws = &mut pipeline.ws;
+                for i in (pass..n).step_by(stride).filter(|&i| !far_moved[i]) {
+                    ws.end[i] += Vector3::from_fn(|k, _| reach * wobble(i + pass, k));
+                    ws.moved[i] = true;
+                }
+                pipeline.detect(Detection::Proximity, Scope::Moved, &mut CollisionReport::default());
+                let ws = &pipeline.ws;
+                let contacts: Vec<String> = ws.contacts.iter().map(|c| format!("{:?} {:?}", c.key(), c.hit)).collect();
+                found.push((ws.pairs.clone(), ws.mesh_pairs.clone(), contacts, ws.escaping.len()));
+                if pass == 2 {
+                    for &t in &ws.moved_list {
+                        pipeline.triangles[t as usize].iter().for_each(|&v| far_moved[v as usize] = true);
+                    }
+                }
+            }
+            (found, pipeline.ws.partners.valid())
+        };
+        let (queried, listed) = passes(None);
+        assert!(!listed, "without speculation nothing is listed");
+        for (pairs, mesh_pairs, contacts, _) in &queried {
+            assert!(pairs.len() > 20 && !mesh_pairs.is_empty() && !contacts.is_empty(), "{}", pairs.len());
+        }
+        for (prediction, name) in PREDICTIONS {
+            let (found, listed) = passes(Some(prediction));
+            assert!(listed, "{name}: the partners are listed");
+            for (pass, (got, want)) in found.iter().zip(&queried).enumerate() {
+                assert_eq!((&got.0, &got.1, &got.2), (&want.0, &want.1, &want.2), "{name}, pass {}", pass + 1);
+            }
+            let escaping: Vec<usize> = found.iter().map(|f| f.3).collect();
+            assert!(escaping[1] > 0, "{name}: 20 cm moves escape the leaves ({escaping:?})");
         }
     }
 

@@ -19,7 +19,7 @@ use nalgebra::Vector3;
 
 use super::bvh::{Box3, SweptBvh};
 use super::detect::moved_pairs;
-use super::{CollisionPipeline, Workspace};
+use super::{CollisionPipeline, ParticleCollision, Workspace};
 use crate::sim::contact::StepWindow;
 
 /// How far, in multiples of a particle's thickness, its predicted box is
@@ -39,6 +39,7 @@ impl CollisionPipeline {
         let cloth_pairs = self.cloth_pairs_wanted();
         let ws = &mut self.ws;
         ws.speculative = false;
+        ws.partners.invalidate();
         if self.framed != Some(window) || self.triangles.is_empty() {
             return;
         }
@@ -49,17 +50,17 @@ impl CollisionPipeline {
             let path = Box3::empty().with(&start[i]).with(&(predicted_end[i] - shift));
             path.grown(thickness * (1.0 + MARGIN_IN_THICKNESSES))
         };
-        ws.speculative_box.clear();
-        ws.speculative_box.extend(self.triangles.iter().map(|t| {
+        ws.leaf_box.clear();
+        ws.leaf_box.extend(self.triangles.iter().map(|t| {
             let [a, b, c] = t.map(point_box);
             a.union(&b).union(&c)
         }));
         let bvh = match &mut self.bvh {
             Some(bvh) => {
-                bvh.update(&ws.speculative_box);
+                bvh.update(&ws.leaf_box);
                 bvh
             }
-            None => self.bvh.insert(SweptBvh::new(&ws.speculative_box)),
+            None => self.bvh.insert(SweptBvh::new(&ws.leaf_box)),
         };
         ws.speculative_pairs.clear();
         if cloth_pairs {
@@ -75,21 +76,36 @@ impl CollisionPipeline {
     /// After a speculation, marks the triangles whose real box is not
     /// inside the predicted one (they escaped) as the workspace's
     /// `moved_triangle`s and `moved_list`, to be queried again as moved
-    /// triangles are after a response; their leaves take their real boxes.
-    /// Every leaf then contains its triangle's real box.
+    /// triangles are after a response; their leaves become their real
+    /// boxes grown by the margin. Every leaf then contains its triangle's
+    /// real box. Lists each triangle's leaf partners for the step's later
+    /// detections ([`super::partners`]).
     pub(super) fn update_escaped(&mut self) {
         let ws = &mut self.ws;
-        let boxes = ws.speculative_box.iter().zip(&ws.triangle_box);
+        let boxes = ws.leaf_box.iter().zip(&ws.triangle_box);
         ws.moved_triangle.clear();
         ws.moved_triangle.extend(boxes.map(|(predicted, real)| !predicted.contains(real)));
         let escaped = ws.moved_triangle.iter().enumerate().filter(|&(_, &e)| e);
         ws.moved_list.clear();
         ws.moved_list.extend(escaped.map(|(t, _)| t as u32));
-        if let Some(bvh) = &mut self.bvh
-            && !ws.moved_list.is_empty()
-        {
-            bvh.update_leaves(&ws.triangle_box, ws.moved_list.iter().map(|&t| t as usize));
+        ws.partners.list(self.triangles.len(), &ws.speculative_pairs, &ws.speculative_mesh_pairs);
+        if let Some(bvh) = &mut self.bvh {
+            let margin = leaf_margin(&self.triangles, &self.particles);
+            let boxes = (&ws.triangle_box[..], &mut ws.leaf_box[..]);
+            ws.partners.re_leaf(&ws.moved_list, boxes, margin, bvh, &mut ws.hits);
         }
+    }
+}
+
+/// How much a triangle's real box is grown to make its leaf: the margin of
+/// the speculation, for the thickest of its particles, m.
+pub(super) fn leaf_margin<'a>(
+    triangles: &'a [[u32; 3]],
+    particles: &'a [ParticleCollision],
+) -> impl Fn(u32) -> f64 + 'a {
+    move |t| {
+        let thickest = triangles[t as usize].iter().map(|&v| particles[v as usize].thickness).fold(0.0, f64::max);
+        MARGIN_IN_THICKNESSES * thickest
     }
 }
 
