@@ -88,12 +88,15 @@ impl CollisionPipeline {
         let escaped = ws.moved_triangle.iter().enumerate().filter(|&(_, &e)| e);
         ws.moved_list.clear();
         ws.moved_list.extend(escaped.map(|(t, _)| t as u32));
+        let Some(bvh) = &mut self.bvh else {
+            // A speculation made the hierarchy; without one nothing is listed.
+            ws.partners.invalidate();
+            return;
+        };
         ws.partners.list(self.triangles.len(), &ws.speculative_pairs, &ws.speculative_mesh_pairs);
-        if let Some(bvh) = &mut self.bvh {
-            let margin = leaf_margin(&self.triangles, &self.particles);
-            let boxes = (&ws.triangle_box[..], &mut ws.leaf_box[..]);
-            ws.partners.re_leaf(&ws.moved_list, boxes, margin, bvh, &mut ws.hits);
-        }
+        let margin = leaf_margin(&self.triangles, &self.particles);
+        let boxes = (&ws.triangle_box[..], &mut ws.leaf_box[..]);
+        ws.partners.re_leaf(&ws.moved_list, boxes, margin, bvh, &mut ws.hits);
     }
 }
 
