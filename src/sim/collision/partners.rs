@@ -11,8 +11,8 @@
 //! its leaf, so two real boxes that overlap have leaves that overlap. So the
 //! partners are listed once per step, and a moved triangle that stays in
 //! its leaf reads its list and tests the real boxes, where a query walked
-//! the hierarchy: on `skirt_walk` 800-odd triangles per pass, five passes
-//! a step.
+//! the hierarchy: on `skirt_walk`, on average, 835 triangles in a step's
+//! second detection, 655 in its third and 374 in its fourth.
 //!
 //! A triangle whose real box leaves its leaf box (it *escapes*: the first
 //! detection's escaped triangles, and any a response moved further than
