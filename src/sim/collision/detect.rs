@@ -220,21 +220,16 @@ impl CollisionPipeline {
         let near = if sharp { boxes.fold(Box3::empty(), |all, (_, b)| all.union(b)) } else { Box3::empty() };
         if cloth_pairs {
             match moved {
-                true if ws.partners.valid() => listed_pairs(
-                    bvh,
-                    (&ws.triangle_box, &ws.moved_triangle, &ws.moved_list),
-                    &ws.partners,
-                    (&mut ws.query_chunks, &mut ws.pair_sorter),
-                    &mut ws.pairs,
-                ),
-                true => moved_pairs(
-                    bvh,
-                    &ws.triangle_box,
-                    &ws.moved_triangle,
-                    &ws.moved_list,
-                    (&mut ws.query_chunks, &mut ws.pair_sorter),
-                    &mut ws.pairs,
-                ),
+                true => {
+                    let listed = ws.partners.valid().then_some(&ws.partners);
+                    moved_pairs(
+                        bvh,
+                        (&ws.triangle_box, &ws.moved_triangle, &ws.moved_list),
+                        listed,
+                        (&mut ws.query_chunks, &mut ws.pair_sorter),
+                        &mut ws.pairs,
+                    )
+                }
                 false if speculated => speculate::confirmed_self_pairs(bvh, ws),
                 false => {
                     bvh.self_pairs(&mut ws.pairs);
@@ -329,21 +324,17 @@ impl CollisionPipeline {
 /// speculation's pairs with those of the escaped cloth triangles (marked as
 /// moved).
 fn mesh_pairs(cloth: &SweptBvh, obstacles: &SweptBvh, ws: &mut Workspace, moved: bool, speculated: bool) {
-    if moved && ws.partners.valid() {
-        let (cloth_box, partners) = (&ws.triangle_box, &ws.partners);
-        parallel_queries(&ws.moved_list, &mut ws.query_chunks, &mut ws.mesh_pairs, |h, hits, pairs| {
-            if partners.queried(h) {
-                obstacles.overlapping(&cloth_box[h as usize], hits);
-                pairs.extend(hits.iter().map(|&t| (t, h)));
-            } else {
-                pairs.extend(partners.obstacles_of(h).iter().map(|&t| (t, h)));
-            }
-        });
-    } else if moved || speculated {
+    if moved || speculated {
+        let listed = (moved && ws.partners.valid()).then_some(&ws.partners);
         let cloth_box = &ws.triangle_box;
         parallel_queries(&ws.moved_list, &mut ws.query_chunks, &mut ws.mesh_pairs, |h, hits, pairs| {
-            obstacles.overlapping(&cloth_box[h as usize], hits);
-            pairs.extend(hits.iter().map(|&t| (t, h)));
+            match listed.filter(|partners| !partners.queried(h)) {
+                Some(partners) => pairs.extend(partners.obstacles_of(h).iter().map(|&t| (t, h))),
+                None => {
+                    obstacles.overlapping(&cloth_box[h as usize], hits);
+                    pairs.extend(hits.iter().map(|&t| (t, h)));
+                }
+            }
         });
     } else {
         ws.mesh_pairs.clear();
@@ -414,45 +405,31 @@ fn mean(vectors: impl ExactSizeIterator<Item = Vector3<f64>>) -> Vector3<f64> {
 
 /// The overlapping pairs `(low, high)` of cloth triangles with at least one
 /// `moved`, sorted: what [`SweptBvh::self_pairs`] gives, restricted to them.
-/// `moved_list` holds the moved triangles in increasing order; the queries'
-/// buffers and the sorter's scratch are kept in `scratch`.
+/// `moved_list` holds the moved triangles in increasing order; the triangles'
+/// real `boxes` come first. With `listed` partners a moved triangle still
+/// inside its leaf reads its list instead of querying the hierarchy (see
+/// [`super::partners`]). The queries' buffers and the sorter's scratch are
+/// kept in `scratch`.
 pub(super) fn moved_pairs(
     bvh: &SweptBvh,
-    boxes: &[Box3],
-    moved: &[bool],
-    moved_list: &[u32],
-    (chunks, sorter): (&mut Vec<QueryChunk>, &mut PairSorter),
-    out: &mut Vec<(u32, u32)>,
-) {
-    parallel_queries(moved_list, chunks, out, |a, hits, pairs| {
-        bvh.overlapping(&boxes[a as usize], hits);
-        let wanted = |h: u32| h != a && (!moved[h as usize] || a < h) && boxes[h as usize].overlaps(&boxes[a as usize]);
-        pairs.extend(hits.iter().filter(|&&h| wanted(h)).map(|&h| (a.min(h), a.max(h))));
-    });
-    sorter.sort(out);
-}
-
-/// [`moved_pairs`] from the triangles' leaf partners: a moved triangle
-/// still inside its leaf reads its list, one queried since it left its leaf
-/// queries the hierarchy (see [`super::partners`]). The triangles' real
-/// `boxes`, which are `moved` and their list come first.
-fn listed_pairs(
-    bvh: &SweptBvh,
     (boxes, moved, moved_list): (&[Box3], &[bool], &[u32]),
-    partners: &Partners,
+    listed: Option<&Partners>,
     (chunks, sorter): (&mut Vec<QueryChunk>, &mut PairSorter),
     out: &mut Vec<(u32, u32)>,
 ) {
     parallel_queries(moved_list, chunks, out, |a, hits, pairs| {
         let wanted = |h: u32| h != a && (!moved[h as usize] || a < h) && boxes[h as usize].overlaps(&boxes[a as usize]);
-        if partners.queried(a) {
-            bvh.overlapping(&boxes[a as usize], hits);
-            pairs.extend(hits.iter().filter(|&&h| wanted(h)).map(|&h| (a.min(h), a.max(h))));
-        } else {
-            pairs.extend(partners.cloth_of(a).filter(|&h| wanted(h)).map(|h| (a.min(h), a.max(h))));
+        let pair = |h: u32| (a.min(h), a.max(h));
+        match listed.filter(|partners| !partners.queried(a)) {
+            Some(partners) => pairs.extend(partners.cloth_of(a).filter(|&h| wanted(h)).map(pair)),
+            None => {
+                bvh.overlapping(&boxes[a as usize], hits);
+                pairs.extend(hits.iter().copied().filter(|&h| wanted(h)).map(pair));
+            }
         }
     });
     sorter.sort(out);
+    // A list may name a partner twice.
     out.dedup();
 }
 

@@ -118,7 +118,7 @@ pub(super) fn leaf_margin<'a>(
 pub(super) fn confirmed_self_pairs(bvh: &SweptBvh, ws: &mut Workspace) {
     let (boxes, escaped) = (&ws.triangle_box, &ws.moved_triangle);
     let scratch = (&mut ws.query_chunks, &mut ws.pair_sorter);
-    moved_pairs(bvh, boxes, escaped, &ws.moved_list, scratch, &mut ws.escaped_pairs);
+    moved_pairs(bvh, (boxes, escaped, &ws.moved_list), None, scratch, &mut ws.escaped_pairs);
     let kept = ws.speculative_pairs.iter().copied().filter(|&(a, b)| boxes[a as usize].overlaps(&boxes[b as usize]));
     merge_sorted(kept, &ws.escaped_pairs, &mut ws.pairs);
 }
