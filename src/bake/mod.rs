@@ -4,6 +4,7 @@
 pub mod output;
 pub mod resume;
 pub mod summary;
+pub mod writer;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 

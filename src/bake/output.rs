@@ -87,6 +87,11 @@ impl<'a> BakeFolder<'a> {
         Ok((folder, resumed.checkpoint, resumed.records))
     }
 
+    /// The bake folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
     fn write_materials(&self) -> Result<(), WriteError> {
         let mut textures = Vec::new();
         let mut mtl = String::from("# drape bake materials\n");

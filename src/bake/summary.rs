@@ -44,6 +44,11 @@ pub struct BakeSummary {
     pub ms_per_frame_mean: f64,
     /// Slowest frame, ms.
     pub ms_per_frame_max: f64,
+    /// What a `drape bake` run took per frame it simulated, ms: from the
+    /// first frame started to the last one on disk, with the independent
+    /// check of every frame and the writing (none outside `drape bake`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ms_per_frame_wall: Option<f64>,
     /// Median time per frame of each pipeline stage, ms.
     pub stage_ms_per_frame_median: BTreeMap<String, f64>,
     /// Mean conjugate-gradient iterations per step.
@@ -179,6 +184,7 @@ impl BakeSummary {
             ms_per_frame_median: median(&frame_ms),
             ms_per_frame_mean: frame_ms.iter().sum::<f64>() / frame_ms.len().max(1) as f64,
             ms_per_frame_max: frame_ms.iter().copied().fold(0.0, f64::max),
+            ms_per_frame_wall: None,
             stage_ms_per_frame_median: stage_ms,
             cg_iterations_per_step_mean: records.iter().map(|r| r.cg_iterations as f64).sum::<f64>()
                 / steps.max(1) as f64,
