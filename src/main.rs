@@ -386,7 +386,7 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).map_err(|e| Failure::Internal(e.to_string()))?;
 
     let again = || format!("`drape bake {} --out {} --resume` goes on from there", path.display(), out.display());
-    let (baker, folder, mut records, fingerprint) = start_bake(&scene, out, frames, resume)?;
+    let (mut baker, folder, mut records, fingerprint) = start_bake(&scene, out, frames, resume)?;
     let bar = ProgressBar::new(frames as u64).with_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} frames  {msg}  eta {eta}")
             .unwrap_or(ProgressStyle::default_bar()),
@@ -395,8 +395,9 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
     let write_failed =
         |e: WriteError| input(format!("{e}\nthe finished frames are kept in {}; {}", out.display(), again()));
     let clock = std::time::Instant::now();
+    let checker = baker.take_checker().ok_or_else(|| Failure::Internal("the bake has no checker".to_owned()))?;
     let (new_records, failure, folder) = std::thread::scope(|scope| {
-        let mut writer = FrameWriter::start(scope, folder, fingerprint);
+        let mut writer = FrameWriter::start(scope, folder, checker, fingerprint);
         let ran = bake::run_from(baker, frames, &cancel, |sim, record| {
             writer.send(FinishedFrame {
                 frame: record.frame,
@@ -413,12 +414,13 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
             Ok(())
         });
         let written = writer.finish();
-        let (new_records, failure) = ran.map_err(|e| match e {
+        let (_, failure) = ran.map_err(|e| match e {
             BakeError::Start(_) => input(e),
             BakeError::Write(e) => write_failed(e),
             BakeError::Step { .. } | BakeError::Snapshot(_) => Failure::Internal(e.to_string()),
         })?;
-        Ok::<_, Failure>((new_records, failure, written.map_err(write_failed)?))
+        let (folder, checked_records) = written.map_err(write_failed)?;
+        Ok::<_, Failure>((checked_records, failure, folder))
     })?;
     bar.finish_and_clear();
     let wall_ms = clock.elapsed().as_secs_f64() * 1e3;

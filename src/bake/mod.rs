@@ -73,7 +73,8 @@ pub struct Baker {
     sim: Simulator,
     stepper: Stepper,
     frame_s: f64,
-    checker: Checker,
+    /// The independent checker, until [`Baker::take_checker`] hands it on.
+    checker: Option<Checker>,
     steps_per_frame: u32,
     frame: usize,
 }
@@ -110,7 +111,7 @@ impl Baker {
             sim,
             stepper,
             frame_s: scene.frame_duration(),
-            checker,
+            checker: Some(checker),
             steps_per_frame: scene.steps_per_frame,
             frame: 0,
         })
@@ -131,9 +132,22 @@ impl Baker {
         Ok(())
     }
 
-    /// The independent checker's count on the current state.
+    /// The independent checker's count on the current state (none once the
+    /// checker is taken).
     pub fn initial_check(&self) -> Intersections {
-        self.checker.check(self.sim.positions(), self.sim.time())
+        self.check()
+    }
+
+    /// Hands the independent checker to whoever checks the frames from now
+    /// on (`drape bake`'s writer thread, beside the next frame's
+    /// simulation); the records of the frames after that leave the
+    /// intersections at zero.
+    pub fn take_checker(&mut self) -> Option<Checker> {
+        self.checker.take()
+    }
+
+    fn check(&self) -> Intersections {
+        self.checker.as_ref().map(|c| c.check(self.sim.positions(), self.sim.time())).unwrap_or_default()
     }
 
     /// Gives garment `garment` a new fabric from the next step on (blended in,
@@ -190,7 +204,7 @@ impl Baker {
         record.rollback_causes = advance.causes;
         record.shortest_step_s = advance.shortest_step_s;
         record.time_s = self.sim.time();
-        record.intersections = self.checker.check(self.sim.positions(), record.time_s);
+        record.intersections = self.check();
         self.frame = frame;
         Ok(record)
     }

@@ -1,11 +1,13 @@
-//! The bake folder written on a thread of its own: each finished frame's
-//! OBJ, its point-cache samples, its record and the checkpoint for
-//! `--resume` are written and synced to disk in frame order while the
-//! simulation goes on with the next frames.
+//! The bake's frames finished on a thread of their own: each frame is
+//! checked by the independent intersection checker, and its OBJ, its
+//! point-cache samples, its record and the checkpoint for `--resume` are
+//! written and synced to disk, in frame order, while the simulation goes on
+//! with the next frames.
 //!
-//! Written in line, a frame's files cost `skirt_walk` about 15 ms of its
-//! ~60 ms of wall time per frame, most of it waiting for the four syncs
-//! (`drape bake`, temporary timers, 2026-12-03). The simulation runs at most
+//! Done in line, this cost `skirt_walk` about 20 ms of its ~60 ms of wall
+//! time per frame: 15 ms writing, most of it waiting for the four syncs,
+//! and 4 ms checking (`drape bake`, temporary timers, 2026-12-03). The
+//! simulation runs at most
 //! [`QUEUE`] frames ahead of the disk, so memory stays bounded when the disk
 //! is slower than the solver; a killed bake loses those frames as it loses
 //! the frame under way, and `--resume` simulates them again.
@@ -19,6 +21,7 @@ use nalgebra::Vector3;
 use super::FrameRecord;
 use super::output::BakeFolder;
 use crate::io::atomic::WriteError;
+use crate::metrics::intersections::Checker;
 use crate::sim::snapshot::Snapshot;
 
 /// Finished frames that may wait for the writer.
@@ -38,26 +41,41 @@ pub struct FinishedFrame {
     pub snapshot: Snapshot,
 }
 
+/// What the writer gives back: the folder, and the frames' records with
+/// what the checker found.
+type Written<'a> = (BakeFolder<'a>, Vec<FrameRecord>);
+
 /// The writer thread of a bake folder.
 pub struct FrameWriter<'scope, 'a> {
     /// The bake folder, for errors.
     dir: PathBuf,
     queue: Option<SyncSender<FinishedFrame>>,
-    thread: Option<ScopedJoinHandle<'scope, Result<BakeFolder<'a>, WriteError>>>,
+    thread: Option<ScopedJoinHandle<'scope, Result<Written<'a>, WriteError>>>,
 }
 
 impl<'scope, 'a: 'scope> FrameWriter<'scope, 'a> {
-    /// Starts writing `folder`'s frames on a thread of `scope`; `fingerprint`
-    /// is the scene's, for the checkpoints.
-    pub fn start<'env>(scope: &'scope Scope<'scope, 'env>, mut folder: BakeFolder<'a>, fingerprint: u32) -> Self {
+    /// Starts checking frames with `checker` (the scene's, taken from its
+    /// [`super::Baker`]) and writing them to `folder` on a thread of `scope`;
+    /// `fingerprint` is the scene's, for the checkpoints.
+    pub fn start<'env>(
+        scope: &'scope Scope<'scope, 'env>,
+        mut folder: BakeFolder<'a>,
+        checker: Checker,
+        fingerprint: u32,
+    ) -> Self {
         let dir = folder.dir().to_owned();
         let (queue, frames) = sync_channel::<FinishedFrame>(QUEUE);
         let thread = scope.spawn(move || {
-            for f in frames {
+            let mut records = Vec::new();
+            for mut f in frames {
+                if let Some(record) = &mut f.record {
+                    record.intersections = checker.check(&f.positions, f.time_s);
+                }
                 folder.write_frame(f.frame, f.time_s, &f.positions)?;
                 folder.commit(f.frame, f.record.as_ref(), fingerprint, f.snapshot)?;
+                records.extend(f.record);
             }
-            Ok(folder)
+            Ok((folder, records))
         });
         FrameWriter { dir, queue: Some(queue), thread: Some(thread) }
     }
@@ -76,12 +94,13 @@ impl<'scope, 'a: 'scope> FrameWriter<'scope, 'a> {
         }
     }
 
-    /// Waits until every frame handed over is written, and gives the folder back.
-    pub fn finish(mut self) -> Result<BakeFolder<'a>, WriteError> {
+    /// Waits until every frame handed over is written, and gives back the
+    /// folder and the frames' records, completed with the checker's counts.
+    pub fn finish(mut self) -> Result<Written<'a>, WriteError> {
         self.join()
     }
 
-    fn join(&mut self) -> Result<BakeFolder<'a>, WriteError> {
+    fn join(&mut self) -> Result<Written<'a>, WriteError> {
         self.queue = None;
         let thread = self.thread.take().ok_or_else(|| stopped(&self.dir))?;
         thread.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
@@ -103,15 +122,24 @@ mod tests {
     use crate::scene::Scene;
     use crate::sim::Simulator;
 
+    const SUNK: usize = 2;
+
+    /// A small cloth 0.5 m above the ground.
     fn small_scene() -> Scene {
         let text = "[time]\nduration_s = 0.2\n[[garment]]\nname = \"cloth\"\npreset = \"cotton\"\n\
-                    mesh = { grid = { size_m = 0.2, resolution = 4 } }\n";
+                    mesh = { grid = { size_m = 0.2, resolution = 4 } }\ntranslation_m = [0.0, 0.5, 0.0]\n\
+                    [[collider]]\nname = \"ground\"\nshape = \"plane\"\n";
         Scene::parse(text, "writer", Path::new("."), "writer").expect("a valid scene")
     }
 
-    /// Frame `k`: the start positions raised by `k` cm.
+    fn checker(scene: &Scene, sim: &Simulator) -> Checker {
+        Checker::new(sim.cloth().triangles.clone(), &scene.colliders, &scene.mesh_colliders)
+    }
+
+    /// Frame `k`: the start positions raised by `k` cm, and frame `SUNK`'s
+    /// sunk 1 m, through the ground.
     fn frame(sim: &Simulator, k: usize) -> FinishedFrame {
-        let lift = Vector3::new(0.0, 0.01 * k as f64, 0.0);
+        let lift = Vector3::new(0.0, if k == SUNK { -1.0 } else { 0.01 * k as f64 }, 0.0);
         FinishedFrame {
             frame: k,
             time_s: k as f64 / 30.0,
@@ -129,8 +157,8 @@ mod tests {
         let dir = tempfile::tempdir().expect("a folder");
         let folder = BakeFolder::create(dir.path(), &scene).expect("a bake folder");
         let frames = 3 * QUEUE;
-        let folder = std::thread::scope(|scope| {
-            let mut writer = FrameWriter::start(scope, folder, fingerprint);
+        let (folder, records) = std::thread::scope(|scope| {
+            let mut writer = FrameWriter::start(scope, folder, checker(&scene, &sim), fingerprint);
             for k in 0..=frames {
                 writer.send(frame(&sim, k)).expect("written");
             }
@@ -138,15 +166,25 @@ mod tests {
         })
         .expect("all written");
         assert_eq!(folder.dir(), dir.path());
-        for k in 0..=frames {
+        for k in (0..=frames).filter(|&k| k != SUNK) {
             let obj = read_obj(&dir.path().join(format!("frame_{k:04}.obj"))).expect("a whole frame");
             let expected = sim.positions()[0].y + 0.01 * k as f64;
             assert!((obj.mesh.positions[0].y - expected).abs() < 1e-6, "frame {k} holds its own positions");
+        }
+        for record in &records {
+            let through = record.intersections.collider_pairs > 0;
+            assert_eq!(through, record.frame == SUNK, "the checker's count of frame {}", record.frame);
         }
         drop(folder);
         let (_, checkpoint, records) = BakeFolder::reopen(dir.path(), &scene, fingerprint).expect("resumable");
         assert_eq!(checkpoint.frame, frames, "the checkpoint is the last frame's");
         assert_eq!(records.iter().map(|r| r.frame).collect::<Vec<_>>(), (1..=frames).collect::<Vec<_>>());
+        let every_triangle = sim.cloth().triangles.len() as u32;
+        assert_eq!(
+            records[SUNK - 1].intersections.collider_pairs,
+            every_triangle,
+            "the records on disk carry the counts"
+        );
     }
 
     #[test]
@@ -159,7 +197,7 @@ mod tests {
         let named_frame_0 =
             |e: &WriteError| e.path.ends_with("frame_0000.obj") && e.source.kind() == std::io::ErrorKind::NotFound;
         std::thread::scope(|scope| {
-            let mut writer = FrameWriter::start(scope, folder, 0);
+            let mut writer = FrameWriter::start(scope, folder, checker(&scene, &sim), 0);
             // The writer fails at frame 0; the queue holds at most QUEUE more.
             let error = (0..QUEUE + 2).find_map(|k| writer.send(frame(&sim, k)).err()).expect("an error");
             assert!(named_frame_0(&error), "{error}");
@@ -170,7 +208,7 @@ mod tests {
         std::thread::scope(|scope| {
             let folder = BakeFolder::create(dir.path(), &scene).expect("a bake folder");
             std::fs::remove_dir_all(dir.path()).expect("the folder removed");
-            let mut writer = FrameWriter::start(scope, folder, 0);
+            let mut writer = FrameWriter::start(scope, folder, checker(&scene, &sim), 0);
             writer.send(frame(&sim, 0)).expect("queued");
             let error = writer.finish().err().expect("an error");
             assert!(named_frame_0(&error), "finish reports it: {error}");
