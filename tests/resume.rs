@@ -38,7 +38,7 @@ fn positions_resumed_at(scene: &Scene, stop: usize, frames: usize) -> Vec<Vec<[u
         snapshot: first.simulator().snapshot().unwrap(),
     };
     drop(first);
-    let saved = resume::decode(&resume::encode(&checkpoint)).unwrap();
+    let saved = resume::decode(&resume::encode(&checkpoint).unwrap()).unwrap();
     let mut second = Baker::new(scene).unwrap();
     second.resume_at(saved.frame, &saved.snapshot).unwrap();
     while second.frame() < frames {

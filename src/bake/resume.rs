@@ -112,15 +112,15 @@ pub fn fingerprint(scene: &Scene, start: &Simulator) -> u32 {
 }
 
 /// The checkpoint file's bytes.
-pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
-    let payload = postcard::to_stdvec(checkpoint).unwrap_or_default();
+pub fn encode(checkpoint: &Checkpoint) -> Result<Vec<u8>, postcard::Error> {
+    let payload = postcard::to_stdvec(checkpoint)?;
     let mut bytes = Vec::with_capacity(HEADER_BYTES + payload.len());
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     bytes.extend_from_slice(&crc32fast::hash(&payload).to_le_bytes());
     bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
     bytes.extend_from_slice(&payload);
-    bytes
+    Ok(bytes)
 }
 
 /// Reads a checkpoint file's bytes; the error says what is wrong.
@@ -242,8 +242,10 @@ impl ResumeLog {
             records_bytes: self.records_bytes,
             snapshot,
         };
-        let bytes = encode(&checkpoint);
-        write_file(&self.dir.join(CHECKPOINT), |w| w.write_all(&bytes))
+        let path = self.dir.join(CHECKPOINT);
+        let bytes =
+            encode(&checkpoint).map_err(|e| WriteError { path: path.clone(), source: std::io::Error::other(e) })?;
+        write_file(&path, |w| w.write_all(&bytes))
     }
 
     /// Removes the working folder (the bake is complete).
@@ -314,7 +316,7 @@ mod tests {
 
     #[test]
     fn a_checkpoint_round_trips_and_damage_is_named() {
-        let bytes = encode(&checkpoint());
+        let bytes = encode(&checkpoint()).expect("an encodable checkpoint");
         assert_eq!(decode(&bytes).unwrap(), checkpoint());
         let mut flipped = bytes.clone();
         *flipped.last_mut().unwrap() ^= 1;
