@@ -398,13 +398,14 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
     let checker = baker.take_checker().ok_or_else(|| Failure::Internal("the bake has no checker".to_owned()))?;
     let (new_records, failure, folder) = std::thread::scope(|scope| {
         let mut writer = FrameWriter::start(scope, folder, checker, fingerprint);
-        let ran = bake::run_from(baker, frames, &cancel, |sim, record| {
+        let ran = bake::run_from(&mut baker, frames, &cancel, |sim, record| {
+            let checkpoint = writer.checkpoint_due() || record.frame == frames;
             writer.send(FinishedFrame {
                 frame: record.frame,
                 time_s: sim.time(),
                 positions: sim.positions().to_vec(),
                 record: (record.frame > 0).then(|| record.clone()),
-                snapshot: sim.snapshot()?,
+                snapshot: checkpoint.then(|| sim.snapshot()).transpose()?,
             })?;
             if record.frame > 0 {
                 let ms = record.timings.total().as_secs_f64() * 1e3;
@@ -412,6 +413,14 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
                 bar.set_position(record.frame as u64);
             }
             Ok(())
+        });
+        // A bake cancelled between checkpoints saves where it stopped; one
+        // that failed mid-frame goes on from its last checkpoint.
+        let ran = ran.and_then(|(records, failure)| {
+            if let (None, Some(frame)) = (&failure, writer.unsaved_frame()) {
+                writer.checkpoint(frame, baker.simulator().snapshot()?)?;
+            }
+            Ok((records, failure))
         });
         let written = writer.finish();
         let (_, failure) = ran.map_err(|e| match e {

@@ -77,6 +77,9 @@ pub struct Baker {
     checker: Option<Checker>,
     steps_per_frame: u32,
     frame: usize,
+    /// Whether the bake was taken up from a checkpoint ([`Baker::resume_at`]):
+    /// its state at `frame` was handed on before.
+    resumed: bool,
 }
 
 /// Why a bake stopped.
@@ -114,6 +117,7 @@ impl Baker {
             checker: Some(checker),
             steps_per_frame: scene.steps_per_frame,
             frame: 0,
+            resumed: false,
         })
     }
 
@@ -128,7 +132,7 @@ impl Baker {
             });
         }
         self.sim.resume_from(snapshot)?;
-        self.frame = frame;
+        (self.frame, self.resumed) = (frame, true);
         Ok(())
     }
 
@@ -219,19 +223,19 @@ pub fn run(
     cancel: &AtomicBool,
     on_frame: impl FnMut(&Simulator, &FrameRecord) -> Result<(), BakeError>,
 ) -> Result<(Vec<FrameRecord>, Option<BakeError>), BakeError> {
-    run_from(Baker::new(scene)?, frames, cancel, on_frame)
+    run_from(&mut Baker::new(scene)?, frames, cancel, on_frame)
 }
 
 /// Like [`run`], from wherever `baker` is: a baker at frame 0 hands its
 /// initial state to `on_frame` first; a resumed one goes on with its next
 /// frame. The records returned are those of the frames run here.
 pub fn run_from(
-    mut baker: Baker,
+    baker: &mut Baker,
     frames: usize,
     cancel: &AtomicBool,
     mut on_frame: impl FnMut(&Simulator, &FrameRecord) -> Result<(), BakeError>,
 ) -> Result<(Vec<FrameRecord>, Option<BakeError>), BakeError> {
-    if baker.frame() == 0 {
+    if baker.frame() == 0 && !baker.resumed {
         let initial = baker.initial_check();
         on_frame(baker.simulator(), &FrameRecord { intersections: initial, ..Default::default() })?;
     }

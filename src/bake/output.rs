@@ -11,8 +11,8 @@
 //! ```
 //!
 //! Every file is written atomically, and frames are streamed to disk as they
-//! are finished, so an interrupted bake leaves only whole files and loses no
-//! finished frame.
+//! are finished, so an interrupted bake leaves only whole files and goes on
+//! from its last checkpoint.
 
 use std::path::{Path, PathBuf};
 
@@ -142,19 +142,15 @@ impl<'a> BakeFolder<'a> {
         write_file(&self.dir.join(format!("frame_{frame:04}.obj")), |w| write_obj(w, &header, Some(MTL_NAME), &objects))
     }
 
-    /// Marks `frame`, just written, finished for `--resume`: appends its
-    /// `record` (none for frame 0), puts the point caches on disk and writes
-    /// the checkpoint with the simulation's `snapshot`.
-    pub fn commit(
-        &mut self,
-        frame: usize,
-        record: Option<&FrameRecord>,
-        fingerprint: u32,
-        snapshot: Snapshot,
-    ) -> Result<(), WriteError> {
-        if let Some(record) = record {
-            self.log.append_record(record)?;
-        }
+    /// Appends the `record` of the frame just written to the records.
+    pub fn add_record(&mut self, record: &FrameRecord) -> Result<(), WriteError> {
+        self.log.append_record(record)
+    }
+
+    /// Marks `frame`, the last written, as where `--resume` goes on: puts
+    /// the point caches and records on disk and writes the checkpoint with
+    /// the simulation's `snapshot` at the end of that frame.
+    pub fn checkpoint(&mut self, frame: usize, fingerprint: u32, snapshot: Snapshot) -> Result<(), WriteError> {
         for (g, cache) in self.scene.garments.iter().zip(&self.caches) {
             cache.sync().map_err(|source| WriteError { path: self.log.cache_path(&g.name), source })?;
         }

@@ -3,15 +3,16 @@
 //! While a bake runs, its folder holds a working folder `.resume/`:
 //!
 //! ```text
-//! .resume/checkpoint.bin   the simulation's whole state after the last finished
-//!                          frame (written atomically after that frame's files)
+//! .resume/checkpoint.bin   the simulation's whole state at the end of a frame
+//!                          (written atomically after that frame's files, about
+//!                          once a second: [`super::writer`])
 //! .resume/records.jsonl    one line per finished frame: what summary.json is made of
 //! .resume/<garment>.pc2    each garment's point cache so far (its header says 0 samples)
 //! ```
 //!
-//! A frame counts as finished once its checkpoint is on disk; whatever a kill
-//! left after it (a frame file, a cache sample, a record line) is written
-//! again, identically, by `drape bake --resume`. A complete bake removes the
+//! `drape bake --resume` goes on after the checkpoint's frame; whatever was
+//! written after it (frame files, cache samples, record lines) is written
+//! again, identically. A complete bake removes the
 //! working folder.
 //!
 //! `checkpoint.bin` is `b"DRAPERSM"`, the format version (u32 LE), the CRC-32
