@@ -54,9 +54,9 @@ pub struct FinishedFrame {
 /// What the writer is asked to do.
 enum Job {
     /// Check and write a frame (and its checkpoint, with a snapshot).
-    Frame(FinishedFrame),
+    Frame(Box<FinishedFrame>),
     /// Write the checkpoint of the last frame written, which had none.
-    Checkpoint { frame: usize, snapshot: Snapshot },
+    Checkpoint { frame: usize, snapshot: Box<Snapshot> },
 }
 
 /// What the writer gives back: the folder, and the frames' records with
@@ -102,7 +102,7 @@ impl<'scope, 'a: 'scope> FrameWriter<'scope, 'a> {
                         }
                         records.extend(f.record);
                     }
-                    Job::Checkpoint { frame, snapshot } => folder.checkpoint(frame, fingerprint, snapshot)?,
+                    Job::Checkpoint { frame, snapshot } => folder.checkpoint(frame, fingerprint, *snapshot)?,
                 }
             }
             Ok((folder, records))
@@ -126,7 +126,7 @@ impl<'scope, 'a: 'scope> FrameWriter<'scope, 'a> {
         } else {
             self.unsaved = Some(frame.frame);
         }
-        self.hand_over(Job::Frame(frame))
+        self.hand_over(Job::Frame(Box::new(frame)))
     }
 
     /// The last frame handed over, if it went without a snapshot: a bake
@@ -139,7 +139,7 @@ impl<'scope, 'a: 'scope> FrameWriter<'scope, 'a> {
     /// over, with `snapshot`, the simulation's state at its end.
     pub fn checkpoint(&mut self, frame: usize, snapshot: Snapshot) -> Result<(), WriteError> {
         self.unsaved = None;
-        self.hand_over(Job::Checkpoint { frame, snapshot })
+        self.hand_over(Job::Checkpoint { frame, snapshot: Box::new(snapshot) })
     }
 
     fn hand_over(&mut self, job: Job) -> Result<(), WriteError> {
@@ -219,12 +219,12 @@ mod tests {
             let mut writer = FrameWriter::start(scope, folder, checker(&scene, &sim), fingerprint);
             for k in 0..=last {
                 let mut f = frame(&sim, k);
-                if k % 3 != 0 {
+                if !k.is_multiple_of(3) {
                     f.snapshot = None;
                 }
                 writer.send(f).expect("written");
             }
-            assert_eq!(writer.unsaved_frame(), (last % 3 != 0).then_some(last));
+            assert_eq!(writer.unsaved_frame(), (!last.is_multiple_of(3)).then_some(last));
             if end_with_checkpoint && let Some(k) = writer.unsaved_frame() {
                 writer.checkpoint(k, sim.snapshot().expect("a snapshot")).expect("written");
             }
