@@ -399,7 +399,7 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
     let (new_records, failure, folder) = std::thread::scope(|scope| {
         let mut writer = FrameWriter::start(scope, folder, checker, fingerprint);
         let ran = bake::run_from(&mut baker, frames, &cancel, |sim, record| {
-            let checkpoint = writer.checkpoint_due() || record.frame == frames;
+            let checkpoint = writer.checkpoint_due();
             writer.send(FinishedFrame {
                 frame: record.frame,
                 time_s: sim.time(),
@@ -414,10 +414,12 @@ fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Res
             }
             Ok(())
         });
-        // A bake cancelled between checkpoints saves where it stopped; one
-        // that failed mid-frame goes on from its last checkpoint.
+        // A bake cancelled between checkpoints saves where it stopped; a
+        // complete one drops its working files, and one that failed
+        // mid-frame goes on from its last checkpoint.
         let ran = ran.and_then(|(records, failure)| {
-            if let (None, Some(frame)) = (&failure, writer.unsaved_frame()) {
+            let cancelled = failure.is_none() && baker.frame() < frames;
+            if let (true, Some(frame)) = (cancelled, writer.unsaved_frame()) {
                 writer.checkpoint(frame, baker.simulator().snapshot()?)?;
             }
             Ok((records, failure))
