@@ -22,7 +22,7 @@ use super::FrameRecord;
 use super::resume::{Checkpoint, ResumeError, ResumeLog};
 use super::summary::BakeSummary;
 use crate::io::atomic::{WriteError, write_file};
-use crate::io::obj::{ObjObject, write_obj};
+use crate::io::obj::{ObjFrames, ObjSurface};
 use crate::io::pc2::Pc2Stream;
 use crate::scene::Scene;
 use crate::sim::snapshot::Snapshot;
@@ -38,6 +38,8 @@ pub struct BakeFolder<'a> {
     log: ResumeLog,
     /// Per garment, its point cache so far.
     caches: Vec<Pc2Stream>,
+    /// The frames' OBJ writer, with the garments' UV and face lines.
+    obj: ObjFrames<'a>,
     /// Whether a checkpoint was written (a bake that can be resumed).
     resumable: bool,
 }
@@ -59,7 +61,7 @@ impl<'a> BakeFolder<'a> {
                 Pc2Stream::create(&path, g.mesh.vertex_count()).map_err(|source| WriteError { path, source })?;
             caches.push(stream);
         }
-        let folder = BakeFolder { dir: dir.to_owned(), scene, log, caches, resumable: false };
+        let folder = BakeFolder { dir: dir.to_owned(), scene, log, caches, obj: obj_frames(scene), resumable: false };
         folder.write_materials()?;
         Ok(folder)
     }
@@ -83,7 +85,8 @@ impl<'a> BakeFolder<'a> {
             caches.push(stream);
         }
         remove_temporaries(dir);
-        let folder = BakeFolder { dir: dir.to_owned(), scene, log: resumed.log, caches, resumable: true };
+        let obj = obj_frames(scene);
+        let folder = BakeFolder { dir: dir.to_owned(), scene, log: resumed.log, caches, obj, resumable: true };
         Ok((folder, resumed.checkpoint, resumed.records))
     }
 
@@ -125,21 +128,13 @@ impl<'a> BakeFolder<'a> {
     /// concatenated) and appends them to the point caches.
     pub fn write_frame(&mut self, frame: usize, time_s: f64, positions: &[Vector3<f64>]) -> Result<(), WriteError> {
         let mut offset = 0;
-        let mut objects = Vec::with_capacity(self.scene.garments.len());
         for (g, cache) in self.scene.garments.iter().zip(&mut self.caches) {
             let own = &positions[offset..offset + g.mesh.vertex_count()];
             offset += own.len();
             cache.append(own).map_err(|source| WriteError { path: self.log.cache_path(&g.name), source })?;
-            objects.push(ObjObject {
-                name: &g.name,
-                positions: own,
-                triangles: &g.mesh.triangles,
-                surface: &g.mesh.surface,
-                material_namespace: &g.name,
-            });
         }
         let header = format!("drape bake of scene {}, frame {frame}, t = {time_s:.6} s", self.scene.name);
-        write_file(&self.dir.join(format!("frame_{frame:04}.obj")), |w| write_obj(w, &header, Some(MTL_NAME), &objects))
+        write_file(&self.dir.join(format!("frame_{frame:04}.obj")), |w| self.obj.write(w, &header, positions))
     }
 
     /// Appends the `record` of the frame just written to the records.
@@ -174,6 +169,22 @@ impl<'a> BakeFolder<'a> {
     pub fn abandon(self) -> Result<(), WriteError> {
         self.log.remove()
     }
+}
+
+/// The OBJ writer of `scene`'s frames: every garment as an object.
+fn obj_frames(scene: &Scene) -> ObjFrames<'_> {
+    let objects: Vec<_> = scene
+        .garments
+        .iter()
+        .map(|g| ObjSurface {
+            name: &g.name,
+            vertex_count: g.mesh.vertex_count(),
+            triangles: &g.mesh.triangles,
+            surface: &g.mesh.surface,
+            material_namespace: &g.name,
+        })
+        .collect();
+    ObjFrames::new(Some(MTL_NAME), &objects)
 }
 
 /// Removes the hidden temporary files (`.name.partial`) that a kill in the

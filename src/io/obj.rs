@@ -7,6 +7,7 @@
 //! (welding happens in [`crate::mesh::validate::clean`]) and the line of a
 //! parse error is found by a second look at the text.
 
+use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -319,14 +320,13 @@ fn locate_error(text: &str, error: &tobj::LoadError) -> Option<usize> {
     text.lines().position(|line| predicate(&line.split_whitespace().collect::<Vec<_>>())).map(|i| i + 1)
 }
 
-/// One object of an exported frame: a garment's current positions with its
-/// surface attributes.
-pub struct ObjObject<'a> {
+/// One object of exported frames: what stays the same from frame to frame.
+pub struct ObjSurface<'a> {
     /// Object name (`o`).
     pub name: &'a str,
-    /// Current vertex positions, m.
-    pub positions: &'a [Vector3<f64>],
-    /// Triangles (indices into `positions`).
+    /// Number of vertices; every frame gives this many positions.
+    pub vertex_count: usize,
+    /// Triangles (indices into the object's positions).
     pub triangles: &'a [[u32; 3]],
     /// UVs, materials and parts.
     pub surface: &'a Surface,
@@ -335,55 +335,118 @@ pub struct ObjObject<'a> {
     pub material_namespace: &'a str,
 }
 
-/// Writes one frame: every object with positions, UVs, area-weighted normals,
-/// parts as groups with their materials. Vertex order is the simulation's, the
-/// same in every frame.
-pub fn write_obj(
-    out: &mut impl Write,
-    header: &str,
-    mtllib: Option<&str>,
-    objects: &[ObjObject],
-) -> std::io::Result<()> {
-    writeln!(out, "# {header}")?;
-    if let Some(lib) = mtllib {
-        writeln!(out, "mtllib {lib}")?;
+/// Writes frames of objects whose surfaces stay the same: every object with
+/// positions, UVs, area-weighted normals, and parts as groups with their
+/// materials. The UV and face lines are formatted once, when made, so a frame
+/// formats only its positions and normals. Vertex order is the simulation's,
+/// the same in every frame.
+pub struct ObjFrames<'a> {
+    mtllib: Option<String>,
+    objects: Vec<FormattedObject<'a>>,
+}
+
+/// An object's name, triangles, and its UV and face lines, ready to write.
+struct FormattedObject<'a> {
+    name: &'a str,
+    vertex_count: usize,
+    triangles: &'a [[u32; 3]],
+    uv_lines: String,
+    face_lines: String,
+}
+
+impl<'a> ObjFrames<'a> {
+    /// Formats the unchanging lines of `objects`, whose frames refer to the
+    /// material library `mtllib`.
+    pub fn new(mtllib: Option<&str>, objects: &[ObjSurface<'a>]) -> Self {
+        let (mut v_base, mut vt_base) = (1usize, 1usize);
+        let formatted = objects
+            .iter()
+            .map(|object| {
+                let formatted = FormattedObject {
+                    name: object.name,
+                    vertex_count: object.vertex_count,
+                    triangles: object.triangles,
+                    uv_lines: uv_lines(object.surface),
+                    face_lines: face_lines(object, v_base, vt_base),
+                };
+                v_base += object.vertex_count;
+                vt_base += object.surface.uvs.len();
+                formatted
+            })
+            .collect();
+        ObjFrames { mtllib: mtllib.map(str::to_owned), objects: formatted }
     }
-    let (mut v_base, mut vt_base) = (1usize, 1usize);
-    for object in objects {
-        writeln!(out, "o {}", object.name)?;
-        for p in object.positions {
-            writeln!(out, "v {:.6} {:.6} {:.6}", p.x, p.y, p.z)?;
-        }
-        for uv in &object.surface.uvs {
-            writeln!(out, "vt {:.6} {:.6}", uv[0], uv[1])?;
-        }
-        for n in crate::mesh::normals::vertex_normals(object.positions, object.triangles) {
-            writeln!(out, "vn {:.5} {:.5} {:.5}", n.x, n.y, n.z)?;
-        }
-        let has_uvs = !object.surface.triangle_uvs.is_empty();
-        for part in &object.surface.parts {
-            writeln!(out, "g {}", part.name)?;
-            let ns = object.material_namespace;
-            match part.material.and_then(|m| object.surface.materials.get(m)) {
-                Some(m) => writeln!(out, "usemtl {ns}.{}", m.name)?,
-                None => writeln!(out, "usemtl {ns}")?,
-            }
-            for t in part.first_triangle..part.first_triangle + part.triangle_count {
-                write!(out, "f")?;
-                for k in 0..3 {
-                    let v = object.triangles[t][k] as usize + v_base;
-                    match has_uvs {
-                        true => write!(out, " {v}/{}/{v}", object.surface.triangle_uvs[t][k] as usize + vt_base)?,
-                        false => write!(out, " {v}//{v}")?,
-                    }
-                }
-                writeln!(out)?;
-            }
-        }
-        v_base += object.positions.len();
-        vt_base += object.surface.uvs.len();
+
+    /// Number of positions a frame gives: every object's, in order.
+    pub fn vertex_count(&self) -> usize {
+        self.objects.iter().map(|o| o.vertex_count).sum()
     }
-    Ok(())
+
+    /// Writes one frame under the comment `header`, from `positions`, m: the
+    /// objects' vertices one after the other ([`Self::vertex_count`] of them).
+    pub fn write(&self, out: &mut impl Write, header: &str, positions: &[Vector3<f64>]) -> std::io::Result<()> {
+        if positions.len() != self.vertex_count() {
+            let problem = format!("{} positions for {} vertices", positions.len(), self.vertex_count());
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, problem));
+        }
+        writeln!(out, "# {header}")?;
+        if let Some(lib) = &self.mtllib {
+            writeln!(out, "mtllib {lib}")?;
+        }
+        let mut rest = positions;
+        for object in &self.objects {
+            let (own, others) = rest.split_at(object.vertex_count);
+            rest = others;
+            writeln!(out, "o {}", object.name)?;
+            for p in own {
+                writeln!(out, "v {:.6} {:.6} {:.6}", p.x, p.y, p.z)?;
+            }
+            out.write_all(object.uv_lines.as_bytes())?;
+            for n in crate::mesh::normals::vertex_normals(own, object.triangles) {
+                writeln!(out, "vn {:.5} {:.5} {:.5}", n.x, n.y, n.z)?;
+            }
+            out.write_all(object.face_lines.as_bytes())?;
+        }
+        Ok(())
+    }
+}
+
+/// The `vt` lines of `surface`.
+fn uv_lines(surface: &Surface) -> String {
+    let mut lines = String::new();
+    for uv in &surface.uvs {
+        let _ = writeln!(lines, "vt {:.6} {:.6}", uv[0], uv[1]);
+    }
+    lines
+}
+
+/// The group, material and face lines of `object`, whose first vertex is
+/// number `v_base` of the file and first UV number `vt_base` (each vertex's
+/// normal has the vertex's number).
+fn face_lines(object: &ObjSurface, v_base: usize, vt_base: usize) -> String {
+    let surface = object.surface;
+    let has_uvs = !surface.triangle_uvs.is_empty();
+    let ns = object.material_namespace;
+    let mut lines = String::new();
+    for part in &surface.parts {
+        let _ = writeln!(lines, "g {}", part.name);
+        let _ = match part.material.and_then(|m| surface.materials.get(m)) {
+            Some(m) => writeln!(lines, "usemtl {ns}.{}", m.name),
+            None => writeln!(lines, "usemtl {ns}"),
+        };
+        for t in part.first_triangle..part.first_triangle + part.triangle_count {
+            lines.push('f');
+            for k in 0..3 {
+                let v = object.triangles[t][k] as usize + v_base;
+                let _ = match has_uvs {
+                    true => write!(lines, " {v}/{}/{v}", surface.triangle_uvs[t][k] as usize + vt_base),
+                    false => write!(lines, " {v}//{v}"),
+                };
+            }
+            lines.push('\n');
+        }
+    }
+    lines
 }
 
 #[cfg(test)]
@@ -452,25 +515,72 @@ mod tests {
         assert!(read_obj(&latin1).unwrap_err().to_string().contains("line 2"));
     }
 
+    /// `frames` of two tubes written as one file each; the second tube is
+    /// the first 2 m away along every axis and moved by `shift` along x per
+    /// frame, with its own namespace.
+    fn two_tube_frames(frames: usize, shift: f64) -> (TriMesh, Vec<Vec<u8>>) {
+        let mesh = generate::tube(0.2, 1.0, 8, 4);
+        let surface = |name, material_namespace| ObjSurface {
+            name,
+            vertex_count: mesh.vertex_count(),
+            triangles: &mesh.triangles,
+            surface: &mesh.surface,
+            material_namespace,
+        };
+        let writer = ObjFrames::new(Some("cloth.mtl"), &[surface("near", "cloth"), surface("far", "lining")]);
+        let files = (0..frames)
+            .map(|frame| {
+                let offset = Vector3::repeat(2.0) + Vector3::x() * (shift * frame as f64);
+                let positions: Vec<_> =
+                    mesh.positions.iter().copied().chain(mesh.positions.iter().map(|p| p + offset)).collect();
+                let mut bytes = Vec::new();
+                writer.write(&mut bytes, &format!("frame {frame}"), &positions).unwrap();
+                bytes
+            })
+            .collect();
+        (mesh, files)
+    }
+
     #[test]
     fn written_frames_read_back_with_the_same_vertices_and_uvs() {
+        let (mesh, files) = two_tube_frames(1, 0.0);
+        let dir = tempfile::tempdir().unwrap();
+        let back = read_obj(&write_temp(&dir, "frame.obj", std::str::from_utf8(&files[0]).unwrap())).unwrap();
+        let n = mesh.vertex_count();
+        assert_eq!(back.mesh.vertex_count(), 2 * n, "the two tubes are apart: nothing welds");
+        let far: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v + n as u32)).collect();
+        assert_eq!(back.mesh.triangles, [mesh.triangles.clone(), far].concat(), "the far tube's faces count on");
+        for (a, b) in back.mesh.positions.iter().zip(mesh.positions.iter().chain(&mesh.positions)).skip(n) {
+            assert!((a - b - Vector3::repeat(2.0)).norm() < 1e-6);
+        }
+        assert_eq!(back.mesh.surface.uvs.len(), 2 * mesh.surface.uvs.len());
+        let text = std::str::from_utf8(&files[0]).unwrap();
+        assert!(text.starts_with("# frame 0\nmtllib cloth.mtl\no near\n"), "{}", &text[..40]);
+        assert!(text.contains("usemtl cloth\n") && text.contains("usemtl lining\n"));
+    }
+
+    #[test]
+    fn frames_differ_only_in_their_positions_and_normals() {
+        let (_, files) = two_tube_frames(2, 0.25);
+        let lines = |bytes: &[u8]| String::from_utf8(bytes.to_vec()).unwrap();
+        let (first, second) = (lines(&files[0]), lines(&files[1]));
+        let mut differing = first.lines().zip(second.lines()).filter(|(a, b)| a != b).map(|(a, _)| a);
+        assert!(differing.all(|line| line.starts_with("v ") || line.starts_with("# frame")));
+        assert_eq!(first.lines().count(), second.lines().count());
+        assert_ne!(first, second, "the far tube moved");
+    }
+
+    #[test]
+    fn a_frame_of_the_wrong_size_is_an_error() {
         let mesh = generate::tube(0.2, 1.0, 8, 4);
-        let object = ObjObject {
+        let surface = ObjSurface {
             name: "tube",
-            positions: &mesh.positions,
+            vertex_count: mesh.vertex_count(),
             triangles: &mesh.triangles,
             surface: &mesh.surface,
             material_namespace: "cloth",
         };
-        let mut bytes = Vec::new();
-        write_obj(&mut bytes, "test", None, &[object]).unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let back = read_obj(&write_temp(&dir, "frame.obj", std::str::from_utf8(&bytes).unwrap())).unwrap();
-        assert_eq!(back.mesh.vertex_count(), mesh.vertex_count());
-        assert_eq!(back.mesh.triangles, mesh.triangles);
-        for (a, b) in back.mesh.positions.iter().zip(&mesh.positions) {
-            assert!((a - b).norm() < 1e-6);
-        }
-        assert_eq!(back.mesh.surface.uvs.len(), mesh.surface.uvs.len());
+        let err = ObjFrames::new(None, &[surface]).write(&mut Vec::new(), "short", &mesh.positions[1..]).unwrap_err();
+        assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
     }
 }
