@@ -158,6 +158,10 @@ fn bad_inputs_get_clear_errors_naming_the_file_and_the_problem() {
         ),
         (vec![("scene.toml", "[time]\nduration_s = 0.0\n".into())], vec!["time.duration_s", "out of range"]),
         (
+            vec![("scene.toml", format!("[collision]\npass_progress = 1.0\n{GOOD_HEAD}preset = \"cotton\"\n{grid}"))],
+            vec!["collision.pass_progress", "1 is out of range", "0 ≤ p < 1"],
+        ),
+        (
             vec![(
                 "scene.toml",
                 format!("{GOOD_HEAD}preset = \"cotton\"\nfabric = {{ strain_limit = -0.01 }}\n{grid}"),

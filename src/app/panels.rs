@@ -308,6 +308,8 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
         };
         let tip = "Detect → respond passes per step before impact zones take over";
         row(ui, "Passes", tip, &mut |ui| ui.add(egui::DragValue::new(&mut settings.passes).range(1..=50)));
+        let tip = "Share of the contacts' shortfall a pass must remove for another pass to run (0: off)";
+        row(ui, "Pass progress", tip, &mut |ui| ui.add(egui::Slider::new(&mut settings.pass_progress, 0.0..=0.9)));
         let tip = "How fast a contact's influence fades when it is not seen again (eq. 16)";
         row(ui, "Influence decay", tip, &mut |ui| {
             ui.add(egui::Slider::new(&mut settings.influence_decay, 0.05..=0.95))

@@ -225,6 +225,10 @@ pub struct CollisionSettings {
     /// Detect → respond passes per step before impact zones take over.
     #[serde(default = "default_passes")]
     pub passes: u32,
+    /// Fraction of the contacts' total shortfall a pass must take away for
+    /// the next one to respond, 0 ≤ p < 1 (0 turns this off).
+    #[serde(default = "default_pass_progress")]
+    pub pass_progress: f64,
     /// Decay factor `a` of a contact's influence when it is not seen again
     /// (eq. 16), 0 < a < 1.
     #[serde(default = "default_decay")]
@@ -246,6 +250,9 @@ pub struct CollisionSettings {
 
 fn default_passes() -> u32 {
     PipelineSettings::default().passes
+}
+fn default_pass_progress() -> f64 {
+    PipelineSettings::default().pass_progress
 }
 fn default_decay() -> f64 {
     PipelineSettings::default().influence_decay
@@ -270,6 +277,7 @@ impl Default for CollisionSettings {
             thickness_m: None,
             friction: None,
             passes: p.passes,
+            pass_progress: p.pass_progress,
             influence_decay: p.influence_decay,
             influence_threshold: p.influence_threshold,
             constraint_sweeps: p.constraint_sweeps,
@@ -284,6 +292,7 @@ impl CollisionSettings {
     pub fn pipeline(&self) -> PipelineSettings {
         PipelineSettings {
             passes: self.passes,
+            pass_progress: self.pass_progress,
             influence_decay: self.influence_decay,
             influence_threshold: self.influence_threshold,
             constraint_sweeps: self.constraint_sweeps,

@@ -648,6 +648,7 @@ impl Resolver<'_> {
         if c.zone_rounds == 0 {
             return Err(self.invalid(what("zone_rounds"), "must be at least 1"));
         }
+        self.check(&what("pass_progress"), c.pass_progress, |p| (0.0..1.0).contains(&p), "0 ≤ p < 1")?;
         self.check(&what("influence_decay"), c.influence_decay, |a| a > 0.0 && a < 1.0, "0 < a < 1")?;
         self.check(&what("influence_threshold"), c.influence_threshold, |t| t > 0.0, "a positive influence")?;
         Ok(c.pipeline())

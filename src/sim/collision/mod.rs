@@ -66,6 +66,15 @@ const FORGOTTEN: f64 = 1e-3;
 pub struct CollisionSettings {
     /// Detect → respond passes per step before impact zones take over.
     pub passes: u32,
+    /// Fraction of the contacts' total shortfall (how far short of the
+    /// thickness they would end, summed in thicknesses) that a pass must take
+    /// away for the next one to respond, in [0, 1); 0 (the default) turns the
+    /// check off. Where the pass hook keeps undoing the impulses (strain
+    /// limits pulling a cloth back over a table's corner) more passes only
+    /// repeat the fight, and a scene can hand such steps to the impact zones
+    /// early; where many contacts converge slowly together (a wrung cloth),
+    /// cutting the passes short makes large zones and costs more.
+    pub pass_progress: f64,
     /// Factor `a` by which a contact's influence decays when it is not seen
     /// again (eq. 16), in (0, 1).
     pub influence_decay: f64,
@@ -85,6 +94,7 @@ impl Default for CollisionSettings {
     fn default() -> Self {
         CollisionSettings {
             passes: 6,
+            pass_progress: 0.0,
             influence_decay: 0.5,
             influence_threshold: 1.5,
             constraint_sweeps: 8,
@@ -391,6 +401,7 @@ impl CollisionPipeline {
         report.refit += clock.elapsed();
         let mut first = true;
         let mut settled = false;
+        let mut last_shortfall = f64::INFINITY;
         for pass in 0..self.settings.passes {
             if pass == 0 {
                 self.detect(Detection::Proximity, Scope::All, &mut report);
@@ -405,6 +416,12 @@ impl CollisionPipeline {
                 settled = true;
                 break;
             }
+            let shortfall = self.total_shortfall(window.h());
+            let progress = self.settings.pass_progress;
+            if progress > 0.0 && shortfall > (1.0 - progress) * last_shortfall {
+                break;
+            }
+            last_shortfall = shortfall;
             let clock = Instant::now();
             report.passes += 1;
             let (constraint_set, acted) = self.respond_pass(window.h());
@@ -507,6 +524,21 @@ impl CollisionPipeline {
         ws.pushed_off.resize(self.particles.len(), Vector3::zeros());
         ws.held.clear();
         ws.held.resize(cloth.start.len(), false);
+    }
+
+    /// How far short of their thickness the contacts would end the step,
+    /// summed in thicknesses.
+    fn total_shortfall(&mut self, h: f64) -> f64 {
+        let ws = &mut self.ws;
+        let points = Points {
+            start: &ws.start,
+            end: &mut ws.end,
+            velocity: &mut ws.velocity,
+            inverse_mass: &ws.inverse_mass,
+            moved: &mut ws.moved,
+            h,
+        };
+        ws.contacts.iter().map(|c| points.shortfall(c) / c.thickness).sum()
     }
 
     /// One pass of impulses over every contact, then sweeps over the
@@ -739,6 +771,37 @@ mod tests {
         let report = pipeline.resolve(cloth, StepWindow { t0: 0.0, t1: 0.01 }, &mut hook);
         assert!(report.passes > 1 && report.passes < 50, "{report:?}");
         assert_eq!(hooked, report.passes - 1, "the hook ran after every pass but the last");
+    }
+
+    /// A hook that undoes every pass (as strain limits pulling a cloth back
+    /// over a table's corner can) leaves the contacts as short as before:
+    /// the passes stop after the first, where without the progress check
+    /// they would run to their limit, and the impact zones still end the
+    /// step with nothing crossing.
+    #[test]
+    fn passes_stop_when_the_hook_undoes_them() {
+        let run = |pass_progress: f64| {
+            let (mut pipeline, n) = crumpled(true);
+            pipeline.settings.pass_progress = pass_progress;
+            let (start, mut end) = (pipeline.ws.start[..n].to_vec(), pipeline.ws.end[..n].to_vec());
+            let mut velocity = pipeline.ws.velocity[..n].to_vec();
+            let (proposed_end, proposed_velocity) = (end.clone(), velocity.clone());
+            let mass = vec![1e-3; n];
+            let mut undo = |pass: PassState| {
+                if pass.stage == ResponseStage::ImpactZones {
+                    return false;
+                }
+                pass.end.copy_from_slice(&proposed_end);
+                pass.velocity.copy_from_slice(&proposed_velocity);
+                true
+            };
+            let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
+            pipeline.resolve(cloth, StepWindow { t0: 0.0, t1: 0.01 }, &mut undo)
+        };
+        let (checked, unchecked) = (run(0.3), run(0.0));
+        assert_eq!(checked.passes, 1, "{checked:?}");
+        assert_eq!(unchecked.passes, CollisionSettings::default().passes, "{unchecked:?}");
+        assert_eq!(checked.unresolved, 0, "{checked:?}");
     }
 
     /// A cloth folded onto itself and shaken, with no obstacle, its whole

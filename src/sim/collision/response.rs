@@ -110,6 +110,12 @@ impl Points<'_> {
         target - self.relative_velocity(c).dot(&c.hit.normal)
     }
 
+    /// How far short of the thickness contact `c`'s features would end the
+    /// step, m (zero if they would not).
+    pub fn shortfall(&self, c: &Contact) -> f64 {
+        (self.deficit(c) * self.h).max(0.0)
+    }
+
     /// Applies contact `c`'s impulse and friction if it needs them; returns
     /// true if it did. A deficit that would leave the features short of the
     /// thickness by less than [`SATISFIED`] of it is round-off, not a need.
