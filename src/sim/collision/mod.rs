@@ -416,12 +416,14 @@ impl CollisionPipeline {
                 settled = true;
                 break;
             }
-            let shortfall = self.total_shortfall(window.h());
             let progress = self.settings.pass_progress;
-            if progress > 0.0 && shortfall > (1.0 - progress) * last_shortfall {
-                break;
+            if progress > 0.0 {
+                let shortfall = self.total_shortfall(window.h());
+                if shortfall > (1.0 - progress) * last_shortfall {
+                    break;
+                }
+                last_shortfall = shortfall;
             }
-            last_shortfall = shortfall;
             let clock = Instant::now();
             report.passes += 1;
             let (constraint_set, acted) = self.respond_pass(window.h());
@@ -528,17 +530,9 @@ impl CollisionPipeline {
 
     /// How far short of their thickness the contacts would end the step,
     /// summed in thicknesses.
-    fn total_shortfall(&mut self, h: f64) -> f64 {
-        let ws = &mut self.ws;
-        let points = Points {
-            start: &ws.start,
-            end: &mut ws.end,
-            velocity: &mut ws.velocity,
-            inverse_mass: &ws.inverse_mass,
-            moved: &mut ws.moved,
-            h,
-        };
-        ws.contacts.iter().map(|c| points.shortfall(c) / c.thickness).sum()
+    fn total_shortfall(&self, h: f64) -> f64 {
+        let ws = &self.ws;
+        ws.contacts.iter().map(|c| c.shortfall(&ws.velocity, h) / c.thickness).sum()
     }
 
     /// One pass of impulses over every contact, then sweeps over the

@@ -68,6 +68,28 @@ impl Contact {
     }
 }
 
+impl Contact {
+    /// The features' relative velocity, m/s, with the points moving at
+    /// `velocity`, m/s.
+    fn relative_velocity(&self, velocity: &[Vector3<f64>]) -> Vector3<f64> {
+        (0..4).map(|k| velocity[self.nodes[k] as usize] * self.hit.weights[k]).sum()
+    }
+
+    /// The relative normal velocity the contact still needs, m/s, with the
+    /// points moving at `velocity`, m/s, over a step of `h` s (positive: the
+    /// features would end closer than the thickness).
+    pub fn deficit(&self, velocity: &[Vector3<f64>], h: f64) -> f64 {
+        let target = (self.thickness - self.hit.start_distance) / h;
+        target - self.relative_velocity(velocity).dot(&self.hit.normal)
+    }
+
+    /// How far short of the thickness the features would end a step of `h`
+    /// s with the points moving at `velocity`, m/s: m, zero if they would not.
+    pub fn shortfall(&self, velocity: &[Vector3<f64>], h: f64) -> f64 {
+        (self.deficit(velocity, h) * h).max(0.0)
+    }
+}
+
 /// Positions and velocities of every point during collision processing.
 pub struct Points<'a> {
     /// Positions at the start of the step, m.
@@ -85,10 +107,6 @@ pub struct Points<'a> {
 }
 
 impl Points<'_> {
-    fn relative_velocity(&self, c: &Contact) -> Vector3<f64> {
-        (0..4).map(|k| self.velocity[c.nodes[k] as usize] * c.hit.weights[k]).sum()
-    }
-
     fn effective_inverse_mass(&self, c: &Contact) -> f64 {
         (0..4).map(|k| c.hit.weights[k] * c.hit.weights[k] * self.inverse_mass[c.nodes[k] as usize]).sum()
     }
@@ -103,30 +121,17 @@ impl Points<'_> {
         }
     }
 
-    /// The relative normal velocity contact `c` still needs, m/s (positive:
-    /// the features would end closer than the thickness).
-    pub fn deficit(&self, c: &Contact) -> f64 {
-        let target = (c.thickness - c.hit.start_distance) / self.h;
-        target - self.relative_velocity(c).dot(&c.hit.normal)
-    }
-
-    /// How far short of the thickness contact `c`'s features would end the
-    /// step, m (zero if they would not).
-    pub fn shortfall(&self, c: &Contact) -> f64 {
-        (self.deficit(c) * self.h).max(0.0)
-    }
-
     /// Applies contact `c`'s impulse and friction if it needs them; returns
     /// true if it did. A deficit that would leave the features short of the
     /// thickness by less than [`SATISFIED`] of it is round-off, not a need.
     pub fn respond(&mut self, c: &Contact) -> bool {
-        let deficit = self.deficit(c);
+        let deficit = c.deficit(self.velocity, self.h);
         let k = self.effective_inverse_mass(c);
         if deficit <= SATISFIED * c.thickness / self.h || k == 0.0 {
             return false;
         }
         let n = c.hit.normal;
-        let relative = self.relative_velocity(c);
+        let relative = c.relative_velocity(self.velocity);
         let tangential = relative - n * relative.dot(&n);
         let slide = tangential.norm();
         let friction =
