@@ -9,8 +9,9 @@
 //!    and feel Coulomb friction as an implicit tangential damping (μN/|v_T|,
 //!    with N from the previous step's constraint impulse). Then detect →
 //!    respond passes: particles whose solved path would reach a collider are
-//!    constrained to arrive at its surface and the system is solved again, so
-//!    the whole cloth feels each new contact within the step. A contact whose
+//!    constrained to arrive at its surface and, when that moves one by more
+//!    than a thickness, the system is solved again, so the whole cloth feels
+//!    each new contact within the step. A contact whose
 //!    impulse pulls instead of pushing is released for the next step;
 //! 4. **constraints**: `x̂ = x + h v`, projected onto the inextensibility
 //!    constraints (eq. 6, [`super::inextensibility`]), velocities with it;
