@@ -445,10 +445,10 @@ fn the_reference_run_measures_the_error_of_each_quality() {
     assert_eq!(reference.frames.len(), h.state().scene.frame_count + 1);
     let preview = bake_error_at(&mut h, "Preview");
     let fine = bake_error_at(&mut h, "Final");
-    // Preview (one step a frame, solves ten times looser) ends this drop about
-    // 5 % of the cloth's diagonal from the reference (`drape bench accuracy`:
-    // 4.98e-2 at the end before 86a72f4, 5.01e-2 after): a bound with room,
-    // not the figure itself.
+    // Preview (one step a frame, solves ten times looser) is about 5 % of the
+    // cloth's diagonal from the reference on this drop (5.007e-2 here since
+    // 86a72f4; `drape bench accuracy` at its end: 4.98e-2 before, 5.01e-2
+    // after): a bound with room, not the figure itself.
     assert!(preview > 0.0 && preview < 0.07, "Preview: {preview}");
     assert!(fine < preview, "Final ({fine}) is closer to the reference than Preview ({preview})");
     h.get_by_label_contains("these frames: mean error");

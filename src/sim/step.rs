@@ -11,8 +11,8 @@
 //!    respond passes: particles whose solved path would reach a collider are
 //!    constrained to arrive at its surface and, when that moves one by more
 //!    than a thickness, the system is solved again, so the whole cloth feels
-//!    each new contact within the step. A contact whose
-//!    impulse pulls instead of pushing is released for the next step;
+//!    each new contact within the step. A contact whose impulse pulls instead
+//!    of pushing is released for the next step;
 //! 4. **constraints**: `x̂ = x + h v`, projected onto the inextensibility
 //!    constraints (eq. 6, [`super::inextensibility`]), velocities with it;
 //! 5. **collisions**: each particle's path against the analytic colliders,
@@ -65,10 +65,9 @@ const CONTACT_PASSES: u32 = 4;
 /// A new contact that moves its particle by less than this fraction of the
 /// thickness over the step does not call for another solve: the collision
 /// stage puts it on the surface. At half a thickness, `needles` solved again
-/// in most steps (14.8 CG iterations a step against 3.9) and its projections
-/// pulled the re-solved cloth back (largest strain 411 % against 190 %); at
-/// one, its bake takes half the time, `drape_table`'s a tenth less, and the
-/// error against the 16× reference is unchanged (BENCHMARKS.md, 2026-12-04).
+/// in most steps (14.8 CG iterations a step against 3.9); at one, its bake
+/// takes half the time, `drape_table`'s a tenth less, and the error against
+/// the 16× reference is unchanged (BENCHMARKS.md, 2026-12-04).
 const RESOLVE_SHIFT: f64 = 1.0;
 
 /// A particle whose pushes off mesh colliders in one pass sum to a normal shorter

@@ -66,9 +66,7 @@ impl Contact {
             }
         }
     }
-}
 
-impl Contact {
     /// The features' relative velocity, m/s, with the points moving at
     /// `velocity`, m/s.
     fn relative_velocity(&self, velocity: &[Vector3<f64>]) -> Vector3<f64> {
