@@ -757,8 +757,9 @@ impl Simulator {
         // The obstacles of the step (a body's skin at its start and end,
         // their boxes and hierarchy) do not depend on the solve: they are
         // made on the other core while it runs, in the frame that the
-        // cloth's start velocities carry it by; then the cloth's broad
-        // phase is speculated there from the ends those velocities predict.
+        // cloth's start velocities carry it by, and only near the ends
+        // those velocities predict; then the cloth's broad phase is
+        // speculated there from those ends.
         let mut pipeline = self.collision.take();
         let shift = carried_displacement(&self.v, h);
         let (mut start, mut predicted) =
@@ -772,7 +773,7 @@ impl Simulator {
             || self.solve_velocity_change(window, h, &mut report),
             || {
                 if let Some(pipeline) = pipeline.as_mut() {
-                    pipeline.frame_obstacles(window, shift);
+                    pipeline.frame_obstacles_near(window, shift, (&start, &predicted));
                     pipeline.speculate(window, &start, &predicted);
                 }
             },

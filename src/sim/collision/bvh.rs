@@ -60,6 +60,11 @@ impl Box3 {
             & (b.min.z <= a.max.z)
     }
 
+    /// True when the box holds no point (as [`Box3::empty`]).
+    pub fn is_empty(&self) -> bool {
+        !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
+    }
+
     /// True when `other` lies inside this box.
     pub fn contains(&self, other: &Box3) -> bool {
         self.union(other) == *self

@@ -15,9 +15,15 @@ use super::obstacles::Obstacles;
 use super::pair_sort::PairSorter;
 use super::partners::Partners;
 use super::response::{Contact, ContactKind};
-use super::speculate::leaf_margin;
+use super::speculate::{MARGIN_IN_THICKNESSES, leaf_margin};
 use super::{CollisionPipeline, CollisionReport, ParticleCollision, Workspace, speculate};
 use crate::sim::contact::StepWindow;
+
+/// How far beyond the cloth's predicted boxes obstacle triangles are boxed
+/// for a step, m (see [`CollisionPipeline::frame_obstacles_near`]): a
+/// detection whose cloth goes further boxes the parked triangles it nears
+/// then, at the price of a pass over the obstacle's triangles.
+pub const OBSTACLE_REGION_MARGIN: f64 = 0.02;
 
 /// Candidate jobs per parallel chunk of the narrow phase.
 const JOBS_PER_CHUNK: usize = 512;
@@ -86,6 +92,36 @@ impl CollisionPipeline {
     /// wherever the points' relative paths come near); one close to the
     /// cloth's own displacement keeps a carried cloth's boxes small.
     pub fn frame_obstacles(&mut self, window: StepWindow, shift: Vector3<f64>) {
+        self.frame_obstacles_in(window, shift, None);
+    }
+
+    /// [`Self::frame_obstacles`] for a cloth going from `start` towards
+    /// `predicted_end` (m), boxing only the obstacle triangles near it: those
+    /// whose boxes meet the cloth's predicted boxes (as
+    /// [`Self::speculate`] grows them) grown by [`OBSTACLE_REGION_MARGIN`].
+    /// The others are *parked*: their boxes are left empty and their
+    /// hierarchy leaves as they were, so no pair with them is kept. A
+    /// detection whose cloth boxes leave that region boxes the parked
+    /// triangles near them first ([`cover_cloth`]): the pairs found
+    /// are those of a full framing, and a body mostly far from its garment
+    /// (a head, arms and feet above and below a skirt) costs little.
+    pub fn frame_obstacles_near(
+        &mut self,
+        window: StepWindow,
+        shift: Vector3<f64>,
+        (start, predicted_end): (&[Vector3<f64>], &[Vector3<f64>]),
+    ) {
+        let cloth = start.iter().zip(predicted_end).zip(&self.particles).map(|((a, b), particle)| {
+            let grown = particle.thickness * (1.0 + MARGIN_IN_THICKNESSES);
+            Box3::empty().with(a).with(&(b - shift)).grown(grown)
+        });
+        let region = cloth.fold(Box3::empty(), |all, b| all.union(&b)).grown(OBSTACLE_REGION_MARGIN);
+        self.frame_obstacles_in(window, shift, Some(region));
+    }
+
+    /// Frames the obstacles (see [`Self::frame_obstacles`]), boxing only the
+    /// triangles whose boxes meet `region` when there is one.
+    fn frame_obstacles_in(&mut self, window: StepWindow, shift: Vector3<f64>, region: Option<Box3>) {
         let n = self.particles.len();
         let ws = &mut self.ws;
         self.obstacles.positions(window, &mut ws.obstacle_start, &mut ws.obstacle_end);
@@ -99,19 +135,26 @@ impl CollisionPipeline {
         let paths = ws.obstacle_start.iter().zip(&ws.obstacle_end);
         ws.node_box.extend(paths.map(|(a, b)| Box3::empty().with(a).with(&(b - shift))));
         let obstacle_nodes = &ws.node_box[n..];
-        ws.obstacle_feature_box.clear();
-        ws.obstacle_feature_box
-            .extend(self.obstacles.triangles.iter().map(|tri| FeatureBoxes::of(*tri, obstacle_nodes)));
+        let triangles = &self.obstacles.triangles;
         ws.obstacle_box.clear();
-        ws.obstacle_box.extend(ws.obstacle_feature_box.iter().map(FeatureBoxes::whole));
+        ws.obstacle_box.extend(triangles.iter().map(|tri| triangle_box(*tri, obstacle_nodes)));
+        ws.obstacle_region = region;
         self.framed = Some(window);
         if ws.obstacle_box.is_empty() {
             return;
         }
-        match &mut self.obstacle_bvh {
-            Some(bvh) => bvh.update(&ws.obstacle_box),
-            None => self.obstacle_bvh = Some(SweptBvh::new(&ws.obstacle_box)),
+        let bvh = self.obstacle_bvh.get_or_insert_with(|| SweptBvh::new(&ws.obstacle_box));
+        ws.obstacle_feature_box.resize(triangles.len(), FeatureBoxes::empty());
+        ws.fresh_obstacles.clear();
+        for (t, (tri, whole)) in triangles.iter().zip(&mut ws.obstacle_box).enumerate() {
+            if region.is_none_or(|region| whole.overlaps(&region)) {
+                ws.obstacle_feature_box[t] = FeatureBoxes::of(*tri, obstacle_nodes);
+                ws.fresh_obstacles.push(t as u32);
+            } else {
+                *whole = Box3::empty();
+            }
         }
+        bvh.update_leaves(&ws.obstacle_box, ws.fresh_obstacles.iter().map(|&t| t as usize));
     }
 
     /// Whether the broad phase pairs cloth triangles with each other: a
@@ -147,6 +190,7 @@ impl CollisionPipeline {
                 ws.feature_box.extend(self.triangles.iter().map(|t| FeatureBoxes::of(*t, &ws.node_box)));
                 ws.triangle_box.clear();
                 ws.triangle_box.extend(ws.feature_box.iter().map(FeatureBoxes::whole));
+                cover_cloth(ws, (&self.obstacles, &mut self.obstacle_bvh), &self.particles, false);
                 if speculated {
                     self.update_escaped();
                 } else {
@@ -167,6 +211,7 @@ impl CollisionPipeline {
             ws.feature_box[t] = FeatureBoxes::of(self.triangles[t], &ws.node_box);
             ws.triangle_box[t] = ws.feature_box[t].whole();
         }
+        cover_cloth(ws, (&self.obstacles, &mut self.obstacle_bvh), &self.particles, true);
         if !ws.partners.valid() {
             bvh.update_leaves(&ws.triangle_box, ws.moved_list.iter().map(|&t| t as usize));
             return;
@@ -371,6 +416,58 @@ impl FeatureBoxes {
     fn whole(&self) -> Box3 {
         self.edges[0].union(&self.edges[1])
     }
+
+    /// No boxes: those of a parked obstacle triangle.
+    fn empty() -> Self {
+        FeatureBoxes { edges: [Box3::empty(); 3], corners: [Box3::empty(); 3] }
+    }
+}
+
+/// Boxes the parked obstacle triangles near the cloth's triangles when their
+/// boxes (all of them, or with `only_listed` those of the workspace's
+/// `moved_list`, whose boxes are new), grown to the leaves they may be given
+/// ([`leaf_margin`]), left the region the obstacles were boxed in; the region
+/// grows to take them in with [`OBSTACLE_REGION_MARGIN`] to spare. Run
+/// before any leaf is made or queried, it keeps every cloth leaf in the
+/// region, so every obstacle triangle a leaf meets is boxed when the leaf's
+/// partners are listed.
+fn cover_cloth(
+    ws: &mut Workspace,
+    (obstacles, obstacle_bvh): (&Obstacles, &mut Option<SweptBvh>),
+    particles: &[ParticleCollision],
+    only_listed: bool,
+) {
+    let (Some(region), Some(bvh)) = (ws.obstacle_region, obstacle_bvh) else { return };
+    let boxes = &ws.triangle_box;
+    let cloth = match only_listed {
+        true => ws.moved_list.iter().fold(Box3::empty(), |all, &t| all.union(&boxes[t as usize])),
+        false => boxes.iter().fold(Box3::empty(), |all, b| all.union(b)),
+    };
+    let thickest = particles.iter().map(|p| p.thickness).fold(0.0, f64::max);
+    let cloth = cloth.grown(MARGIN_IN_THICKNESSES * thickest);
+    if cloth.is_empty() || region.contains(&cloth) {
+        return;
+    }
+    let region = region.union(&cloth).grown(OBSTACLE_REGION_MARGIN);
+    ws.obstacle_region = Some(region);
+    let obstacle_nodes = &ws.node_box[particles.len()..];
+    ws.fresh_obstacles.clear();
+    for (t, tri) in obstacles.triangles.iter().enumerate() {
+        let whole = triangle_box(*tri, obstacle_nodes);
+        if ws.obstacle_box[t].is_empty() && whole.overlaps(&region) {
+            ws.obstacle_box[t] = whole;
+            ws.obstacle_feature_box[t] = FeatureBoxes::of(*tri, obstacle_nodes);
+            ws.fresh_obstacles.push(t as u32);
+        }
+    }
+    bvh.update_leaves(&ws.obstacle_box, ws.fresh_obstacles.iter().map(|&t| t as usize));
+}
+
+/// The box of triangle `tri` whose points have boxes `node_box`: the
+/// [`FeatureBoxes::whole`] of its feature boxes.
+fn triangle_box(tri: [u32; 3], node_box: &[Box3]) -> Box3 {
+    let [a, b, c] = tri.map(|v| node_box[v as usize]);
+    a.union(&b).union(&c)
 }
 
 /// The mean displacement over the step of the points that go `start` → `end`
