@@ -1,6 +1,7 @@
 //! Bounding-volume hierarchy of swept boxes (parry3d's `Bvh`): built once from
 //! a mesh's triangles, refitted every step with each triangle's box over the
-//! whole step, grown by the thickness.
+//! whole step, grown by half the thickness (the other feature's box is grown
+//! by the other half).
 //!
 //! parry3d works in f32; boxes are rounded outwards when converted, so no pair
 //! that overlaps in f64 is lost.

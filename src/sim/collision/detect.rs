@@ -111,8 +111,9 @@ impl CollisionPipeline {
         shift: Vector3<f64>,
         (start, predicted_end): (&[Vector3<f64>], &[Vector3<f64>]),
     ) {
+        let growth = box_growth(&self.particles);
         let cloth = start.iter().zip(predicted_end).zip(&self.particles).map(|((a, b), particle)| {
-            let grown = particle.thickness * (1.0 + MARGIN_IN_THICKNESSES);
+            let grown = growth + particle.thickness * MARGIN_IN_THICKNESSES;
             Box3::empty().with(a).with(&(b - shift)).grown(grown)
         });
         let region = cloth.fold(Box3::empty(), |all, b| all.union(&b)).grown(OBSTACLE_REGION_MARGIN);
@@ -126,14 +127,15 @@ impl CollisionPipeline {
         let ws = &mut self.ws;
         self.obstacles.positions(window, &mut ws.obstacle_start, &mut ws.obstacle_end);
         ws.shift = shift;
+        ws.growth = box_growth(&self.particles);
         ws.speculative = false;
         ws.node_box.clear();
         ws.node_box.resize(n, Box3::empty());
         // The cloth's boxes are of the last step: the next detection makes
         // all of them again.
         ws.triangle_box.clear();
-        let paths = ws.obstacle_start.iter().zip(&ws.obstacle_end);
-        ws.node_box.extend(paths.map(|(a, b)| Box3::empty().with(a).with(&(b - shift))));
+        let (paths, growth) = (ws.obstacle_start.iter().zip(&ws.obstacle_end), ws.growth);
+        ws.node_box.extend(paths.map(|(a, b)| Box3::empty().with(a).with(&(b - shift)).grown(growth)));
         let obstacle_nodes = &ws.node_box[n..];
         let triangles = &self.obstacles.triangles;
         ws.obstacle_box.clear();
@@ -174,15 +176,14 @@ impl CollisionPipeline {
     /// their leaves (see [`super::partners`]).
     fn refit(&mut self, only_moved: bool, speculated: bool) {
         let ws = &mut self.ws;
-        let (start, end, shift) = (&ws.start, &ws.end, ws.shift);
-        let point_box =
-            |i: usize, p: &ParticleCollision| Box3::empty().with(&start[i]).with(&(end[i] - shift)).grown(p.thickness);
+        let (start, end, shift, growth) = (&ws.start, &ws.end, ws.shift, ws.growth);
+        let point_box = |i: usize| Box3::empty().with(&start[i]).with(&(end[i] - shift)).grown(growth);
         let point_state = |i: usize| PointState::of(i, start, end, &self.particles);
         let bvh = match &mut self.bvh {
             Some(bvh) if only_moved && ws.triangle_box.len() == self.triangles.len() => bvh,
             _ => {
-                for (i, particle) in self.particles.iter().enumerate() {
-                    ws.node_box[i] = point_box(i, particle);
+                for i in 0..self.particles.len() {
+                    ws.node_box[i] = point_box(i);
                 }
                 ws.point.clear();
                 ws.point.extend((0..start.len()).map(point_state));
@@ -202,8 +203,8 @@ impl CollisionPipeline {
                 return;
             }
         };
-        for (i, particle) in self.particles.iter().enumerate().filter(|&(i, _)| ws.moved[i]) {
-            ws.node_box[i] = point_box(i, particle);
+        for i in (0..self.particles.len()).filter(|&i| ws.moved[i]) {
+            ws.node_box[i] = point_box(i);
             ws.point[i] = point_state(i);
         }
         for &t in &ws.moved_list {
@@ -461,6 +462,17 @@ fn cover_cloth(
         }
     }
     bvh.update_leaves(&ws.obstacle_box, ws.fresh_obstacles.iter().map(|&t| t as usize));
+}
+
+/// How much every point's box over the step is grown, m: half the largest
+/// thickness of `particles`. A contact needs its features within its
+/// thickness of each other at some time of the step, and the features lie in
+/// their points' unshrunk boxes at every time, so the boxes of any two
+/// features that can touch, each grown by this, overlap: cloth features with
+/// each other and with obstacles' (whose boxes are grown by it too).
+pub(super) fn box_growth(particles: &[ParticleCollision]) -> f64 {
+    let thickest = particles.iter().map(|p| p.thickness).fold(0.0, f64::max);
+    thickest / 2.0
 }
 
 /// The box of triangle `tri` whose points have boxes `node_box`: the

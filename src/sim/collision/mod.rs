@@ -6,8 +6,10 @@
 //! particle goes:
 //!
 //! 1. **refit**: each cloth triangle's box over the whole step (start and
-//!    proposed end of its corners, grown by the thickness) refits a BVH built
-//!    once; boxes are taken in a frame that moves with the cloth's mean
+//!    proposed end of its corners, grown by half the largest thickness, as
+//!    every obstacle point's box is, so two features' boxes overlap wherever
+//!    they can come within a thickness) refits a BVH built once; boxes are
+//!    taken in a frame that moves with the cloth's mean
 //!    displacement, so motion the features share does not stretch them. The
 //!    mesh colliders' triangles have a BVH of their own, refitted once per
 //!    step: they do not move within it;
@@ -249,6 +251,8 @@ struct Workspace {
     /// The step's frame: boxes span each point's start and its end minus
     /// this, m (see [`CollisionPipeline::frame_obstacles`]).
     shift: Vector3<f64>,
+    /// How much every point's box is grown, m ([`detect::box_growth`]).
+    growth: f64,
     /// Per point (cloth, then obstacles): its box over the step in that frame.
     node_box: Vec<Box3>,
     /// Per point: what the narrow phase reads of it, packed.
@@ -826,6 +830,65 @@ mod tests {
         (folded.ws.contacts.iter().map(Contact::key).collect(), report)
     }
 
+    /// Every feature pair within the thickness at an end of the step, or
+    /// crossing during it, by brute force over all pairs of the crumpled
+    /// cloth (vertex-triangle and edge-edge within the cloth, against the
+    /// tetrahedron's triangles, edges and vertices, and against the blade's
+    /// sharp edges and vertices): the contacts a detection finds through its
+    /// boxes, hierarchies and owned features are exactly these.
+    #[test]
+    fn a_detection_finds_every_contact_a_brute_force_over_all_feature_pairs_finds() {
+        use super::ccd::{Path, edge_edge, vertex_triangle};
+        let (mut pipeline, n) = crumpled(true);
+        pipeline.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
+        let found: BTreeSet<[u32; 5]> = pipeline.ws.contacts.iter().map(Contact::key).collect();
+
+        let ws = &pipeline.ws;
+        let path = |i: u32| Path { start: ws.start[i as usize], end: ws.end[i as usize] };
+        let edges_of = |triangles: &[[u32; 3]]| -> BTreeSet<[u32; 2]> {
+            let edge = |t: &[u32; 3], k: usize| [t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])];
+            triangles.iter().flat_map(|t| (0..3).map(move |k| edge(t, k))).collect()
+        };
+        let offset = |v: u32| v + n as u32;
+        let cloth_triangles = pipeline.triangles.clone();
+        let obstacle_triangles: Vec<[u32; 3]> = pipeline.obstacles.triangles.iter().map(|t| t.map(offset)).collect();
+        let cloth_edges = edges_of(&cloth_triangles);
+        let mut obstacle_edges = edges_of(&obstacle_triangles);
+        obstacle_edges.extend(pipeline.obstacles.feature_edges.iter().map(|e| e.map(offset)));
+        let mut obstacle_vertices: BTreeSet<u32> = obstacle_triangles.iter().flatten().copied().collect();
+        obstacle_vertices.extend(pipeline.obstacles.feature_vertices.iter().map(|&v| offset(v)));
+
+        let mut expected = BTreeSet::new();
+        let mut vertex_against = |v: u32, tri: [u32; 3]| {
+            if !tri.contains(&v)
+                && vertex_triangle(&path(v), &path(tri[0]), &path(tri[1]), &path(tri[2]), THICKNESS).is_some()
+            {
+                let mut sorted = tri;
+                sorted.sort_unstable();
+                expected.insert([0, v, sorted[0], sorted[1], sorted[2]]);
+            }
+        };
+        for v in 0..n as u32 {
+            cloth_triangles.iter().chain(&obstacle_triangles).for_each(|&tri| vertex_against(v, tri));
+        }
+        for &v in &obstacle_vertices {
+            cloth_triangles.iter().for_each(|&tri| vertex_against(v, tri));
+        }
+        let mut edge_against = |a: [u32; 2], b: [u32; 2]| {
+            if !a.iter().any(|v| b.contains(v))
+                && edge_edge(&path(a[0]), &path(a[1]), &path(b[0]), &path(b[1]), THICKNESS).is_some()
+            {
+                let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+                expected.insert([1, lo[0], lo[1], hi[0], hi[1]]);
+            }
+        };
+        for &a in &cloth_edges {
+            cloth_edges.range(a..).chain(&obstacle_edges).for_each(|&b| edge_against(a, b));
+        }
+        assert!(expected.len() > 100 && expected.iter().any(|k| k[4] >= n as u32), "the fold and the obstacles touch");
+        assert_eq!(found, expected);
+    }
+
     /// Boxes are taken in a frame moving with the cloth's mean displacement:
     /// a cloth carried 0.3 m in a step (50 times its own shaking) finds the
     /// same contacts, after as many box tests, as the same cloth not carried.
@@ -1083,7 +1146,8 @@ mod tests {
             let mass = vec![1e-3; start.len()];
             let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
             pipeline.load(&cloth, window);
-            let parked = |pipeline: &CollisionPipeline| pipeline.ws.obstacle_box.iter().filter(|b| b.is_empty()).count();
+            let parked =
+                |pipeline: &CollisionPipeline| pipeline.ws.obstacle_box.iter().filter(|b| b.is_empty()).count();
             if near {
                 pipeline.frame_obstacles_near(window, Vector3::zeros(), (&start, &start));
                 assert_eq!(parked(&pipeline), pipeline.obstacles.triangles.len(), "the whole floor is parked");

@@ -43,12 +43,12 @@ impl CollisionPipeline {
         if self.framed != Some(window) || self.triangles.is_empty() {
             return;
         }
-        let shift = ws.shift;
+        let (shift, growth) = (ws.shift, ws.growth);
         let particles = &self.particles;
         let point_box = |v: u32| {
             let (i, thickness) = (v as usize, particles[v as usize].thickness);
             let path = Box3::empty().with(&start[i]).with(&(predicted_end[i] - shift));
-            path.grown(thickness * (1.0 + MARGIN_IN_THICKNESSES))
+            path.grown(growth + thickness * MARGIN_IN_THICKNESSES)
         };
         ws.leaf_box.clear();
         ws.leaf_box.extend(self.triangles.iter().map(|t| {
