@@ -252,6 +252,22 @@ enum BenchSweep {
     },
 }
 
+/// Turns off Mesa's Vulkan device-select layer where there is no desktop
+/// session (`XDG_RUNTIME_DIR` unset: root on a headless machine, a CI
+/// runner). The layer asks the Wayland compositor which GPU drives the
+/// display, and without a session libwayland prints "error: XDG_RUNTIME_DIR
+/// is invalid or not set" on every adapter query though nothing failed;
+/// with no session there is no display to match, and wgpu picks the
+/// adapter itself. `NODEVICE_SELECT` is the layer's own off switch (its
+/// manifest's `disable_environment`); one the user set is left alone.
+fn without_display_server_probe() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() && std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: the first thing `main` does, before any other thread
+        // exists to read the environment.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
 /// How a command failed, which decides the exit code.
 enum Failure {
     /// Bad input: a file, a value, an unwritable output (exit 1).
@@ -265,6 +281,7 @@ enum Failure {
 }
 
 fn main() -> ExitCode {
+    without_display_server_probe();
     // A command line we cannot read is bad input (exit 1), like a bad file;
     // clap's own convention (2) would say the simulation failed.
     let cli = match Cli::try_parse() {
