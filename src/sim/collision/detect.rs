@@ -27,6 +27,8 @@ pub const OBSTACLE_REGION_MARGIN: f64 = 0.02;
 
 /// Candidate jobs per parallel chunk of the narrow phase.
 const JOBS_PER_CHUNK: usize = 512;
+/// Points or triangles per parallel task when a detection boxes them all.
+const BOXES_PER_TASK: usize = 1024;
 /// Distance at which impact zones and the final verdict count two features
 /// as touching, m: a true crossing, not a thickness violation. A rigid zone
 /// keeps its members' distances, so pairs inside it that start apart stay
@@ -182,15 +184,17 @@ impl CollisionPipeline {
         let bvh = match &mut self.bvh {
             Some(bvh) if only_moved && ws.triangle_box.len() == self.triangles.len() => bvh,
             _ => {
-                for i in 0..self.particles.len() {
-                    ws.node_box[i] = point_box(i);
-                }
+                let cloth_boxes = ws.node_box[..self.particles.len()].par_iter_mut().with_min_len(BOXES_PER_TASK);
+                cloth_boxes.enumerate().for_each(|(i, b)| *b = point_box(i));
                 ws.point.clear();
-                ws.point.extend((0..start.len()).map(point_state));
+                ws.point.par_extend((0..start.len()).into_par_iter().with_min_len(BOXES_PER_TASK).map(point_state));
+                let node_box = &ws.node_box;
+                let triangles = self.triangles.par_iter().with_min_len(BOXES_PER_TASK);
                 ws.feature_box.clear();
-                ws.feature_box.extend(self.triangles.iter().map(|t| FeatureBoxes::of(*t, &ws.node_box)));
+                ws.feature_box.par_extend(triangles.map(|t| FeatureBoxes::of(*t, node_box)));
                 ws.triangle_box.clear();
-                ws.triangle_box.extend(ws.feature_box.iter().map(FeatureBoxes::whole));
+                let features = ws.feature_box.par_iter().with_min_len(BOXES_PER_TASK);
+                ws.triangle_box.par_extend(features.map(FeatureBoxes::whole));
                 cover_cloth(ws, (&self.obstacles, &mut self.obstacle_bvh), &self.particles, false);
                 if speculated {
                     self.update_escaped();
@@ -223,7 +227,7 @@ impl CollisionPipeline {
         ws.escaping.extend(ws.moved_list.iter().filter(|&&t| !leaf_box[t as usize].contains(&real[t as usize])));
         let margin = leaf_margin(&self.triangles, &self.particles);
         let boxes = (&ws.triangle_box[..], &mut ws.leaf_box[..]);
-        ws.partners.re_leaf(&ws.escaping, boxes, margin, bvh, &mut ws.hits);
+        ws.partners.re_leaf(&ws.escaping, boxes, margin, bvh, &mut ws.query_chunks);
     }
 
     /// Boxes, broad phase and narrow phase over `scope`: fills the
@@ -556,7 +560,7 @@ pub(super) struct QueryChunk {
 /// with its own hit and pair buffers, kept in `chunks` from call to call) and
 /// appends the pairs to `out` in the order of `triangles`, whatever the
 /// thread count.
-fn parallel_queries(
+pub(super) fn parallel_queries(
     triangles: &[u32],
     chunks: &mut Vec<QueryChunk>,
     out: &mut Vec<(u32, u32)>,

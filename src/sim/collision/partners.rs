@@ -23,6 +23,7 @@
 //! and the bake are too.
 
 use super::bvh::{Box3, SweptBvh};
+use super::detect::{QueryChunk, parallel_queries};
 
 /// Per cloth triangle, the partners its hierarchy leaf overlaps, for the
 /// step under way.
@@ -46,6 +47,8 @@ pub(super) struct Partners {
     added: Vec<(u32, u32)>,
     /// Scratch of the lists' filling.
     fill: Vec<u32>,
+    /// Scratch of [`Self::re_leaf`]'s queries.
+    fresh: Vec<(u32, u32)>,
 }
 
 impl Partners {
@@ -98,14 +101,15 @@ impl Partners {
     /// Gives each of the `escaping` triangles (whose real boxes `real` left
     /// their leaves) a new leaf, its real box grown by `margin(t)` (m), in
     /// `leaf_box` and in `bvh`; marks them queried, and adds each to the
-    /// lists of the triangles its new leaf meets. `hits` is scratch.
+    /// lists of the triangles its new leaf meets (queried in parallel
+    /// `chunks`; sorted after, so in the same order at any thread count).
     pub fn re_leaf(
         &mut self,
         escaping: &[u32],
         (real, leaf_box): (&[Box3], &mut [Box3]),
         margin: impl Fn(u32) -> f64,
         bvh: &mut SweptBvh,
-        hits: &mut Vec<u32>,
+        chunks: &mut Vec<QueryChunk>,
     ) {
         if escaping.is_empty() {
             return;
@@ -115,10 +119,12 @@ impl Partners {
             self.queried[t as usize] = true;
         }
         bvh.update_leaves(leaf_box, escaping.iter().map(|&t| t as usize));
-        for &t in escaping {
+        let (bvh, leaf_box) = (&*bvh, &*leaf_box);
+        parallel_queries(escaping, chunks, &mut self.fresh, |t, hits, met| {
             bvh.overlapping(&leaf_box[t as usize], hits);
-            self.added.extend(hits.iter().filter(|&&h| h != t).map(|&h| (h, t)));
-        }
+            met.extend(hits.iter().filter(|&&h| h != t).map(|&h| (h, t)));
+        });
+        self.added.extend_from_slice(&self.fresh);
         self.added.sort_unstable();
         self.added.dedup();
     }

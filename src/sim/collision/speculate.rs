@@ -70,6 +70,9 @@ impl CollisionPipeline {
         if let Some(obstacles) = &self.obstacle_bvh {
             obstacles.pairs_with(bvh, &mut ws.speculative_mesh_pairs);
         }
+        // The lists need only the pairs: made here, on the core the solve
+        // leaves free, they cost the first detection nothing.
+        ws.partners.list(self.triangles.len(), &ws.speculative_pairs, &ws.speculative_mesh_pairs);
         ws.speculative = true;
     }
 
@@ -78,8 +81,8 @@ impl CollisionPipeline {
     /// `moved_triangle`s and `moved_list`, to be queried again as moved
     /// triangles are after a response; their leaves become their real
     /// boxes grown by the margin. Every leaf then contains its triangle's
-    /// real box. Lists each triangle's leaf partners for the step's later
-    /// detections ([`super::partners`]).
+    /// real box, and the leaf partners the speculation listed for the
+    /// step's later detections ([`super::partners`]) hold.
     pub(super) fn update_escaped(&mut self) {
         let ws = &mut self.ws;
         let boxes = ws.leaf_box.iter().zip(&ws.triangle_box);
@@ -93,10 +96,9 @@ impl CollisionPipeline {
             ws.partners.invalidate();
             return;
         };
-        ws.partners.list(self.triangles.len(), &ws.speculative_pairs, &ws.speculative_mesh_pairs);
         let margin = leaf_margin(&self.triangles, &self.particles);
         let boxes = (&ws.triangle_box[..], &mut ws.leaf_box[..]);
-        ws.partners.re_leaf(&ws.moved_list, boxes, margin, bvh, &mut ws.hits);
+        ws.partners.re_leaf(&ws.moved_list, boxes, margin, bvh, &mut ws.query_chunks);
     }
 }
 
