@@ -322,6 +322,10 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
         row(ui, "Constraint sweeps", tip, &mut |ui| {
             ui.add(egui::DragValue::new(&mut settings.constraint_sweeps).range(1..=100))
         });
+        let tip = "Springs pushing the cloth's resting self-contacts apart in the solve, N/m (0: off)";
+        row(ui, "Repulsion", tip, &mut |ui| {
+            ui.add(egui::Slider::new(&mut settings.repulsion_stiffness_n_per_m, 0.0..=20.0).suffix(" N/m"))
+        });
         let tip = "Rounds of rigid impact zones before a step gives up";
         row(ui, "Impact-zone rounds", tip, &mut |ui| {
             ui.add(egui::DragValue::new(&mut settings.zone_rounds).range(1..=200))

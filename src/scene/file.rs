@@ -246,6 +246,14 @@ pub struct CollisionSettings {
     /// Algorithm 1); `false` is for measuring what that saves.
     #[serde(default = "default_representative")]
     pub representative_triangles: bool,
+    /// Stiffness of the springs that push resting self-contacts apart in the
+    /// implicit solve, N/m (0 turns them off).
+    #[serde(default = "default_repulsion_stiffness")]
+    pub repulsion_stiffness_n_per_m: f64,
+    /// How near the thickness a self-contact rests, and how far past it its
+    /// spring pushes, as a fraction of the thickness, 0 < b < 1.
+    #[serde(default = "default_repulsion_band")]
+    pub repulsion_band: f64,
 }
 
 fn default_passes() -> u32 {
@@ -269,6 +277,12 @@ fn default_zone_rounds() -> u32 {
 fn default_representative() -> bool {
     PipelineSettings::default().representative_triangles
 }
+fn default_repulsion_stiffness() -> f64 {
+    PipelineSettings::default().repulsion_stiffness
+}
+fn default_repulsion_band() -> f64 {
+    PipelineSettings::default().repulsion_band
+}
 
 impl Default for CollisionSettings {
     fn default() -> Self {
@@ -283,6 +297,8 @@ impl Default for CollisionSettings {
             constraint_sweeps: p.constraint_sweeps,
             zone_rounds: p.zone_rounds,
             representative_triangles: p.representative_triangles,
+            repulsion_stiffness_n_per_m: p.repulsion_stiffness,
+            repulsion_band: p.repulsion_band,
         }
     }
 }
@@ -298,6 +314,8 @@ impl CollisionSettings {
             constraint_sweeps: self.constraint_sweeps,
             zone_rounds: self.zone_rounds,
             representative_triangles: self.representative_triangles,
+            repulsion_stiffness: self.repulsion_stiffness_n_per_m,
+            repulsion_band: self.repulsion_band,
         }
     }
 }

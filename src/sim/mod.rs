@@ -24,6 +24,7 @@ pub mod motion;
 pub mod multigrid;
 pub mod parallel;
 pub mod pcg;
+pub mod repulsion;
 pub mod snapshot;
 pub mod sparse;
 pub mod step;

@@ -37,6 +37,7 @@ use super::cholesky::CholeskyError;
 use super::cloth::{Cloth, SpringKind};
 use super::colliders::Collider;
 use super::collision::obstacles::{ClothScale, MeshCollider, Obstacles};
+use super::collision::resting::RestingPair;
 use super::collision::{
     ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, Kinematic, ParticleCollision,
     PassState, ResponseStage, carried_displacement,
@@ -52,6 +53,7 @@ use super::motion::Placement;
 use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
 use super::pcg::{Constraint, FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner, SystemChange};
+use super::repulsion::Repulsion;
 use super::snapshot::{Snapshot, SnapshotError, from_arrays, to_arrays};
 use super::tuning::Ramp;
 
@@ -441,6 +443,10 @@ struct Workspace {
     /// the start velocities, for the collision pipeline's speculation.
     speculative_start: Vec<Vector3<f64>>,
     predicted_end: Vec<Vector3<f64>>,
+    /// The cloth's resting self-contacts at the step's start and the
+    /// repulsions that push them apart in the solve, if the scene has them.
+    resting: Vec<RestingPair>,
+    repulsion: Option<Repulsion>,
 }
 
 /// A cloth simulation: state, parameters, colliders and the step pipeline.
@@ -761,6 +767,7 @@ impl Simulator {
         // those velocities predict; then the cloth's broad phase is
         // speculated there from those ends.
         let mut pipeline = self.collision.take();
+        self.ws.repulsion = pipeline.as_ref().and_then(|p| p.repulsion(&self.x, h, &mut self.ws.resting));
         let shift = carried_displacement(&self.v, h);
         let (mut start, mut predicted) =
             (std::mem::take(&mut self.ws.speculative_start), std::mem::take(&mut self.ws.predicted_end));
@@ -885,6 +892,9 @@ impl Simulator {
         evaluate_springs(&self.cloth, &self.springs, &input, &mut self.ws.system);
         report.timings.springs = lap(&mut clock);
         assemble(&self.layout, &self.particles, &input, &mut self.ws.system);
+        if let Some(repulsion) = &self.ws.repulsion {
+            repulsion.add_to(&self.ws.resting, &self.layout.pattern, &mut self.ws.system);
+        }
         report.timings.assembly = lap(&mut clock);
 
         self.ws.velocity_change.resize(n, Vector3::zeros());

@@ -41,6 +41,7 @@ pub mod obstacles;
 mod pair_sort;
 mod partners;
 pub mod response;
+pub mod resting;
 mod speculate;
 mod zones;
 
@@ -90,6 +91,13 @@ pub struct CollisionSettings {
     /// (PAPER Algorithm 1); off tests them from every incident triangle, for
     /// comparison only: the contacts found are the same.
     pub representative_triangles: bool,
+    /// Stiffness of the springs that push the cloth's resting self-contacts
+    /// apart in the implicit solve ([`crate::sim::repulsion`]), N/m; 0 turns
+    /// them off.
+    pub repulsion_stiffness: f64,
+    /// How near the thickness a remembered self-contact must lie to rest
+    /// (and how far past it its spring pushes), as a fraction of it.
+    pub repulsion_band: f64,
 }
 
 impl Default for CollisionSettings {
@@ -102,6 +110,8 @@ impl Default for CollisionSettings {
             constraint_sweeps: 8,
             zone_rounds: 40,
             representative_triangles: true,
+            repulsion_stiffness: 2.0,
+            repulsion_band: 0.1,
         }
     }
 }
