@@ -179,7 +179,8 @@ fn resting_folds_are_pushed_apart_in_the_solve() {
         let records = assert_never_intersects(&scene);
         records.iter().map(|r| u64::from(r.triangle_contacts)).sum::<u64>()
     };
-    let (pushed, answered) = (contacts(2.0), contacts(0.0));
+    let default = drape::sim::collision::CollisionSettings::default().repulsion_stiffness;
+    let (pushed, answered) = (contacts(default), contacts(0.0));
     assert!(answered > 1000, "the folds rest on themselves: {answered} contacts");
     assert!(pushed * 2 < answered, "{pushed} contacts with the repulsions, {answered} without");
 }

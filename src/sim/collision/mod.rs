@@ -93,7 +93,9 @@ pub struct CollisionSettings {
     pub representative_triangles: bool,
     /// Stiffness of the springs that push the cloth's resting self-contacts
     /// apart in the implicit solve ([`crate::sim::repulsion`]), N/m; 0 turns
-    /// them off.
+    /// them off. At 0.5 `drape_sphere`, `spin_sphere` and the tiered skirt
+    /// keep most of what 2 gives them, and `pillars`, whose folds rest on
+    /// sharp tops, no longer pays for it (BENCHMARKS, 2026-12-04).
     pub repulsion_stiffness: f64,
     /// How near the thickness a remembered self-contact must lie to rest
     /// (and how far past it its spring pushes), as a fraction of it.
@@ -110,7 +112,7 @@ impl Default for CollisionSettings {
             constraint_sweeps: 8,
             zone_rounds: 40,
             representative_triangles: true,
-            repulsion_stiffness: 2.0,
+            repulsion_stiffness: 0.5,
             repulsion_band: 0.1,
         }
     }
