@@ -767,7 +767,7 @@ impl Simulator {
         // those velocities predict; then the cloth's broad phase is
         // speculated there from those ends.
         let mut pipeline = self.collision.take();
-        self.ws.repulsion = pipeline.as_ref().and_then(|p| p.repulsion(&self.x, h, &mut self.ws.resting));
+        self.ws.repulsion = pipeline.as_mut().and_then(|p| p.repulsion(&self.x, h, &mut self.ws.resting));
         let shift = carried_displacement(&self.v, h);
         let (mut start, mut predicted) =
             (std::mem::take(&mut self.ws.speculative_start), std::mem::take(&mut self.ws.predicted_end));

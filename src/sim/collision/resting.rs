@@ -39,7 +39,7 @@ impl CollisionPipeline {
     /// The repulsions of a step of `h` s starting at positions `x` (m), with
     /// the resting pairs they push into `out`; `None` (and no pairs) when the
     /// scene turns them off.
-    pub fn repulsion(&self, x: &[Vector3<f64>], h: f64, out: &mut Vec<RestingPair>) -> Option<Repulsion> {
+    pub fn repulsion(&mut self, x: &[Vector3<f64>], h: f64, out: &mut Vec<RestingPair>) -> Option<Repulsion> {
         let (stiffness, band) = (self.settings.repulsion_stiffness, self.settings.repulsion_band);
         if stiffness == 0.0 {
             out.clear();
@@ -52,11 +52,12 @@ impl CollisionPipeline {
     /// The remembered contacts between cloth particles whose features lie
     /// within `band` (a fraction of their thickness) of the thickness at
     /// positions `x` (m), in key order, into `out`.
-    pub fn resting_pairs(&self, x: &[Vector3<f64>], band: f64, out: &mut Vec<RestingPair>) {
+    pub fn resting_pairs(&mut self, x: &[Vector3<f64>], band: f64, out: &mut Vec<RestingPair>) {
         out.clear();
         let cloth = self.particles.len() as u32;
-        let mut keys: Vec<[u32; 5]> =
-            self.influence.keys().filter(|key| key[1..].iter().all(|&i| i < cloth)).copied().collect();
+        let keys = &mut self.ws.resting_keys;
+        keys.clear();
+        keys.extend(self.influence.keys().filter(|key| key[1..].iter().all(|&i| i < cloth)));
         keys.sort_unstable();
         out.extend(keys.iter().filter_map(|key| {
             let nodes = [key[1], key[2], key[3], key[4]];
