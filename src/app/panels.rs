@@ -326,6 +326,12 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
         row(ui, "Repulsion", tip, &mut |ui| {
             ui.add(egui::Slider::new(&mut settings.repulsion_stiffness_n_per_m, 0.0..=20.0).suffix(" N/m"))
         });
+        let tip =
+            "Springs pushing the cloth off the colliders' sharp edges and tips it rests on, in the solve, N/m (0: off)";
+        row(ui, "Edge repulsion", tip, &mut |ui| {
+            let stiffness = &mut settings.feature_repulsion_stiffness_n_per_m;
+            ui.add(egui::Slider::new(stiffness, 0.0..=100.0).suffix(" N/m"))
+        });
         let tip = "Rounds of rigid impact zones before a step gives up";
         row(ui, "Impact-zone rounds", tip, &mut |ui| {
             ui.add(egui::DragValue::new(&mut settings.zone_rounds).range(1..=200))

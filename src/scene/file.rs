@@ -250,7 +250,12 @@ pub struct CollisionSettings {
     /// implicit solve, N/m (0 turns them off).
     #[serde(default = "default_repulsion_stiffness")]
     pub repulsion_stiffness_n_per_m: f64,
-    /// How near the thickness a self-contact rests, and how far past it its
+    /// Stiffness of the springs that push the cloth off the analytic
+    /// colliders' sharp features (edges, corners, tips) it rests on in the
+    /// implicit solve, N/m (0 turns them off).
+    #[serde(default = "default_feature_repulsion_stiffness")]
+    pub feature_repulsion_stiffness_n_per_m: f64,
+    /// How near the thickness a contact rests, and how far past it its
     /// spring pushes, as a fraction of the thickness, 0 < b < 1.
     #[serde(default = "default_repulsion_band")]
     pub repulsion_band: f64,
@@ -280,6 +285,9 @@ fn default_representative() -> bool {
 fn default_repulsion_stiffness() -> f64 {
     PipelineSettings::default().repulsion_stiffness
 }
+fn default_feature_repulsion_stiffness() -> f64 {
+    PipelineSettings::default().feature_repulsion_stiffness
+}
 fn default_repulsion_band() -> f64 {
     PipelineSettings::default().repulsion_band
 }
@@ -298,6 +306,7 @@ impl Default for CollisionSettings {
             zone_rounds: p.zone_rounds,
             representative_triangles: p.representative_triangles,
             repulsion_stiffness_n_per_m: p.repulsion_stiffness,
+            feature_repulsion_stiffness_n_per_m: p.feature_repulsion_stiffness,
             repulsion_band: p.repulsion_band,
         }
     }
@@ -315,6 +324,7 @@ impl CollisionSettings {
             zone_rounds: self.zone_rounds,
             representative_triangles: self.representative_triangles,
             repulsion_stiffness: self.repulsion_stiffness_n_per_m,
+            feature_repulsion_stiffness: self.feature_repulsion_stiffness_n_per_m,
             repulsion_band: self.repulsion_band,
         }
     }

@@ -1,23 +1,31 @@
-//! Repulsions between the cloth's resting self-contacts, in the implicit
-//! solve (after Bridson et al. 2002's repulsion springs).
+//! Repulsions between the cloth's resting contacts, in the implicit solve
+//! (after Bridson et al. 2002's repulsion springs).
 //!
 //! A pair of features resting on each other at distance `d` of its
 //! thickness `δ` ([`RestingPair`]) is a spring of stiffness `k` that pushes
 //! until `d₀ = (1 + band) δ`: energy `E = ½ k (d₀ − d)²` for `d < d₀`, so
 //! particle `i` of the pair feels `fᵢ = k (d₀ − d) wᵢ n` (the closest
 //! points' weights `wᵢ` and the unit normal `n`; the weights' own change
-//! moves `d` only to second order at the closest points).
+//! moves `d` only to second order at the closest points). A self-contact's
+//! spring pushes both features; one against an analytic collider's sharp
+//! feature (a table's edge, a needle's tip) pushes only the cloth's, the
+//! feature being where its collider puts it. The two kinds have their own
+//! stiffness: a fold resting on itself carries little more than its own
+//! weight, a cloth drawn over a sharp edge the tension of all that hangs
+//! from it.
 //!
 //! The spring couples particles of two fold layers, which the springs'
 //! factor does not hold, and conjugate gradients pays for such couplings with
 //! many iterations (BENCHMARKS, 2026-12-04 noon). So its Jacobian
-//! `−k (w wᵀ) ⊗ (n nᵀ)` enters the system *lumped*: each particle's diagonal
-//! block gets its row's absolute sum, `k |wᵢ| Σⱼ |wⱼ| n nᵀ = 2 k |wᵢ| n nᵀ`
-//! (the weights of each feature sum to one). The lumped matrix exceeds the
-//! true one by a positive semi-definite part, so the step is as stable as a
-//! fully implicit one, and where the spring is stiff against the masses the
-//! two features together close the gap to `d₀` once, each moving its share,
-//! rather than each closing it all as if the other stood still. The force
+//! `−k (w wᵀ) ⊗ (n nᵀ)` enters the system *lumped*: each cloth particle's
+//! diagonal block gets its row's absolute sum over the cloth particles,
+//! `k |wᵢ| Σⱼ |wⱼ| n nᵀ` (`2 k |wᵢ| n nᵀ` for a self-contact, the weights of
+//! each feature summing to one; `k |wᵢ| n nᵀ` against an obstacle). The
+//! lumped matrix exceeds the true one by a positive semi-definite part, so
+//! the step is as stable as a fully implicit one, and where the spring is
+//! stiff against the masses the cloth closes the gap to `d₀` once (the two
+//! features of a self-contact together, each moving its share) rather than
+//! each particle closing it all as if the others stood still. The force
 //! enters the right-hand side at the step's start; the collision response
 //! still guarantees the thickness, the repulsions only spare it most of the
 //! resting pairs it would answer pass after pass.
@@ -31,8 +39,11 @@ use super::sparse::BlockPattern;
 /// What the repulsions of a step add.
 #[derive(Clone, Copy, Debug)]
 pub struct Repulsion {
-    /// Spring stiffness `k`, N/m.
-    pub stiffness: f64,
+    /// Stiffness `k` of a spring between two cloth features, N/m.
+    pub self_stiffness: f64,
+    /// Stiffness `k` of a spring between a cloth feature and an analytic
+    /// collider's sharp feature, N/m.
+    pub feature_stiffness: f64,
     /// `d₀` beyond the thickness, as a fraction of it.
     pub band: f64,
     /// Step, s.
@@ -40,21 +51,30 @@ pub struct Repulsion {
 }
 
 impl Repulsion {
-    /// Force of `pair`'s spring on its `k`th particle, N.
-    pub fn force(&self, pair: &RestingPair, k: usize) -> Vector3<f64> {
-        let push = ((1.0 + self.band) * pair.thickness - pair.distance).max(0.0);
-        pair.normal * (self.stiffness * push * pair.weights[k])
+    /// Stiffness of `pair`'s spring, N/m.
+    pub fn stiffness(&self, pair: &RestingPair) -> f64 {
+        if pair.is_self_contact() { self.self_stiffness } else { self.feature_stiffness }
     }
 
-    /// Adds every pair's impulse `h fᵢ` (N·s) to the right-hand side and its
-    /// lumped Jacobian `2 h² k |wᵢ| n nᵀ` (kg) to the diagonal blocks of the
-    /// system on `pattern`, in the pairs' order.
+    /// Force of `pair`'s spring on its `k`th point, N (nothing moves an
+    /// obstacle's point, whatever this says).
+    pub fn force(&self, pair: &RestingPair, k: usize) -> Vector3<f64> {
+        let push = ((1.0 + self.band) * pair.thickness - pair.distance).max(0.0);
+        pair.normal * (self.stiffness(pair) * push * pair.weights[k])
+    }
+
+    /// Adds every pair's impulse `h fᵢ` (N·s) to the right-hand side of its
+    /// cloth particles and its lumped Jacobian `h² k |wᵢ| Σⱼ |wⱼ| n nᵀ` (kg)
+    /// to their diagonal blocks of the system on `pattern`, in the pairs'
+    /// order.
     pub fn add_to(&self, pairs: &[RestingPair], pattern: &BlockPattern, system: &mut SystemBuffers) {
-        let lumped = 2.0 * self.h * self.h * self.stiffness;
         for pair in pairs {
+            let on_cloth = |k: &usize| pair.on_cloth[*k];
+            let coupled: f64 = (0..4).filter(on_cloth).map(|k| pair.weights[k].abs()).sum();
+            let lumped = self.h * self.h * self.stiffness(pair) * coupled;
             let stiffening = pair.normal * pair.normal.transpose();
-            for (k, &node) in pair.nodes.iter().enumerate() {
-                let i = node as usize;
+            for k in (0..4).filter(on_cloth) {
+                let i = pair.nodes[k] as usize;
                 system.rhs[i] += self.force(pair, k) * self.h;
                 system.matrix[pattern.diagonal(i)] += stiffening * (lumped * pair.weights[k].abs());
             }
@@ -71,12 +91,19 @@ mod tests {
 
     const THICKNESS: f64 = 0.0025;
 
-    fn vertex_over_triangle(x: &[Vector3<f64>; 4]) -> RestingPair {
+    const SELF_CONTACT: [bool; 4] = [true; 4];
+    const ON_AN_OBSTACLE: [bool; 4] = [true, false, false, false];
+
+    fn repulsion(self_stiffness: f64, feature_stiffness: f64) -> Repulsion {
+        Repulsion { self_stiffness, feature_stiffness, band: 0.1, h: 1.0 / 60.0 }
+    }
+
+    fn vertex_over_triangle(x: &[Vector3<f64>; 4], on_cloth: [bool; 4]) -> RestingPair {
         let [wa, wb, wc] = closest_on_triangle(&x[0], &x[1], &x[2], &x[3]);
         let weights = [1.0, -wa, -wb, -wc];
         let gap: Vector3<f64> = (0..4).map(|k| x[k] * weights[k]).sum();
         let distance = gap.norm();
-        RestingPair { nodes: [0, 1, 2, 3], weights, normal: gap / distance, distance, thickness: THICKNESS }
+        RestingPair { nodes: [0, 1, 2, 3], on_cloth, weights, normal: gap / distance, distance, thickness: THICKNESS }
     }
 
     fn resting_vertex() -> [Vector3<f64>; 4] {
@@ -90,48 +117,75 @@ mod tests {
 
     #[test]
     fn the_force_is_minus_the_gradient_of_the_spring_energy() {
-        let repulsion = Repulsion { stiffness: 2.0, band: 0.1, h: 1.0 / 60.0 };
-        let energy = |x: &[Vector3<f64>; 4]| {
-            let d = point_triangle_distance(&x[0], &x[1], &x[2], &x[3]);
-            let push = ((1.0 + repulsion.band) * THICKNESS - d).max(0.0);
-            0.5 * repulsion.stiffness * push * push
-        };
         let x = resting_vertex();
-        let pair = vertex_over_triangle(&x);
-        let step = 1e-7;
-        for k in 0..4 {
-            for axis in 0..3 {
-                let (mut plus, mut minus) = (x, x);
-                plus[k][axis] += step;
-                minus[k][axis] -= step;
-                let numeric = -(energy(&plus) - energy(&minus)) / (2.0 * step);
-                let analytic = repulsion.force(&pair, k)[axis];
-                assert!((numeric - analytic).abs() < 1e-6 * (1.0 + analytic.abs()), "{k} {axis}: {numeric} {analytic}");
+        for (on_cloth, stiffness) in [(SELF_CONTACT, 2.0), (ON_AN_OBSTACLE, 30.0)] {
+            let repulsion = repulsion(2.0, 30.0);
+            let energy = |x: &[Vector3<f64>; 4]| {
+                let d = point_triangle_distance(&x[0], &x[1], &x[2], &x[3]);
+                let push = ((1.0 + repulsion.band) * THICKNESS - d).max(0.0);
+                0.5 * stiffness * push * push
+            };
+            let pair = vertex_over_triangle(&x, on_cloth);
+            let step = 1e-7;
+            for k in 0..4 {
+                for axis in 0..3 {
+                    let (mut plus, mut minus) = (x, x);
+                    plus[k][axis] += step;
+                    minus[k][axis] -= step;
+                    let numeric = -(energy(&plus) - energy(&minus)) / (2.0 * step);
+                    let analytic = repulsion.force(&pair, k)[axis];
+                    let close = (numeric - analytic).abs() < 1e-6 * (1.0 + analytic.abs());
+                    assert!(close, "{k} {axis}: {numeric} {analytic}");
+                }
             }
         }
     }
 
+    /// The velocity changes a system of four particles of `mass` (kg) gets
+    /// from `pair`'s repulsion alone.
+    fn velocity_changes(repulsion: &Repulsion, pair: &RestingPair, mass: f64) -> Vec<Vector3<f64>> {
+        let pattern = BlockPattern::new(4, []);
+        let mut system = SystemBuffers::default();
+        system.matrix = vec![Matrix3::identity() * mass; pattern.stored_blocks()];
+        system.rhs = vec![Vector3::zeros(); 4];
+        repulsion.add_to(&[*pair], &pattern, &mut system);
+        (0..4).map(|i| system.matrix[pattern.diagonal(i)].try_inverse().unwrap() * system.rhs[i]).collect()
+    }
+
     /// Stiff against the masses, the lumped solve closes the gap to `d₀`
-    /// once: the two features move apart by `d₀ − d` together.
+    /// once: the two features of a self-contact move apart by `d₀ − d`
+    /// together; against an obstacle the cloth's vertex moves it all and the
+    /// obstacle's points get nothing.
     #[test]
     fn a_stiff_repulsion_closes_the_gap_once_wherever_the_vertex_rests() {
-        for at in [Vector3::new(0.3, 0.0024, 0.2), Vector3::new(0.01, 0.0024, 0.01), Vector3::new(0.5, 0.0024, 0.0)] {
-            let mut x = resting_vertex();
-            x[0] = at;
-            let pair = vertex_over_triangle(&x);
-            let h = 1.0 / 60.0;
-            let repulsion = Repulsion { stiffness: 1e9, band: 0.1, h };
-            let mass = 1e-5;
-            let pattern = BlockPattern::new(4, []);
-            let mut system = SystemBuffers::default();
-            system.matrix = vec![Matrix3::identity() * mass; pattern.stored_blocks()];
-            system.rhs = vec![Vector3::zeros(); 4];
-            repulsion.add_to(&[pair], &pattern, &mut system);
-            let velocity_change: Vec<Vector3<f64>> =
-                (0..4).map(|i| system.matrix[pattern.diagonal(i)].try_inverse().unwrap() * system.rhs[i]).collect();
-            let opened: f64 = (0..4).map(|k| pair.weights[k] * pair.normal.dot(&(velocity_change[k] * h))).sum();
-            let gap = (1.0 + repulsion.band) * THICKNESS - pair.distance;
-            assert!((opened - gap).abs() < 1e-6 * gap, "{opened} against {gap}");
+        let repulsion = repulsion(1e9, 1e9);
+        for on_cloth in [SELF_CONTACT, ON_AN_OBSTACLE] {
+            for at in [Vector3::new(0.3, 0.0024, 0.2), Vector3::new(0.01, 0.0024, 0.01), Vector3::new(0.5, 0.0024, 0.0)]
+            {
+                let mut x = resting_vertex();
+                x[0] = at;
+                let pair = vertex_over_triangle(&x, on_cloth);
+                let velocity_change = velocity_changes(&repulsion, &pair, 1e-5);
+                let moved = |k: usize| pair.weights[k] * pair.normal.dot(&(velocity_change[k] * repulsion.h));
+                let opened: f64 = (0..4).map(moved).sum();
+                let gap = (1.0 + repulsion.band) * THICKNESS - pair.distance;
+                assert!((opened - gap).abs() < 1e-6 * gap, "{on_cloth:?}: {opened} against {gap}");
+                for k in (0..4).filter(|&k| !on_cloth[k]) {
+                    assert_eq!(velocity_change[k], Vector3::zeros(), "an obstacle point got a push");
+                }
+            }
         }
+    }
+
+    /// Each kind of pair is pushed with its own stiffness: a weak self
+    /// repulsion leaves an obstacle pair's spring as stiff as it is set.
+    #[test]
+    fn self_and_obstacle_pairs_have_their_own_stiffness() {
+        let repulsion = repulsion(0.5, 20.0);
+        let x = resting_vertex();
+        let (folded, draped) = (vertex_over_triangle(&x, SELF_CONTACT), vertex_over_triangle(&x, ON_AN_OBSTACLE));
+        assert_eq!((repulsion.stiffness(&folded), repulsion.stiffness(&draped)), (0.5, 20.0));
+        let ratio = repulsion.force(&draped, 0).norm() / repulsion.force(&folded, 0).norm();
+        assert!((ratio - 40.0).abs() < 1e-9, "{ratio}");
     }
 }

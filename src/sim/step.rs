@@ -443,7 +443,7 @@ struct Workspace {
     /// the start velocities, for the collision pipeline's speculation.
     speculative_start: Vec<Vector3<f64>>,
     predicted_end: Vec<Vector3<f64>>,
-    /// The cloth's resting self-contacts at the step's start and the
+    /// The cloth's resting contacts at the step's start and the
     /// repulsions that push them apart in the solve, if the scene has them.
     resting: Vec<RestingPair>,
     repulsion: Option<Repulsion>,
@@ -767,7 +767,7 @@ impl Simulator {
         // those velocities predict; then the cloth's broad phase is
         // speculated there from those ends.
         let mut pipeline = self.collision.take();
-        self.ws.repulsion = pipeline.as_mut().and_then(|p| p.repulsion(&self.x, h, &mut self.ws.resting));
+        self.ws.repulsion = pipeline.as_mut().and_then(|p| p.repulsion(&self.x, window.t0, h, &mut self.ws.resting));
         let shift = carried_displacement(&self.v, h);
         let (mut start, mut predicted) =
             (std::mem::take(&mut self.ws.speculative_start), std::mem::take(&mut self.ws.predicted_end));

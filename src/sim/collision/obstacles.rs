@@ -201,20 +201,20 @@ impl Obstacles {
     pub fn positions(&self, window: StepWindow, start: &mut Vec<Vector3<f64>>, end: &mut Vec<Vector3<f64>>) {
         start.clear();
         end.clear();
-        for (i, (p, &c)) in self.local.iter().zip(&self.vertex_collider).enumerate() {
-            let body = &self.bodies[c as usize];
-            let placement = &body.placement;
-            let (from, to) = (placement.world_from_local(window.t0), placement.world_from_local(window.t1));
-            let (a, b) = match &body.animation {
-                Some(animation) => {
-                    let v = i - body.first_vertex as usize;
-                    (animation.position(v, window.t0), animation.position(v, window.t1))
-                }
-                None => (*p, *p),
-            };
-            start.push((from * Point3::from(a)).coords);
-            end.push((to * Point3::from(b)).coords);
+        for i in 0..self.local.len() {
+            start.push(self.position(i, window.t0));
+            end.push(self.position(i, window.t1));
         }
+    }
+
+    /// World position of vertex `i` at time `t` (s), m.
+    pub fn position(&self, i: usize, t: f64) -> Vector3<f64> {
+        let body = &self.bodies[self.vertex_collider[i] as usize];
+        let local = match &body.animation {
+            Some(animation) => animation.position(i - body.first_vertex as usize, t),
+            None => self.local[i],
+        };
+        (body.placement.world_from_local(t) * Point3::from(local)).coords
     }
 }
 

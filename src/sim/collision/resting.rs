@@ -1,16 +1,25 @@
-//! The cloth's resting self-contacts at the start of a step, for the
-//! implicit solve to push apart ([`crate::sim::repulsion`]).
+//! The cloth's resting contacts at the start of a step, for the implicit
+//! solve to push apart ([`crate::sim::repulsion`]).
 //!
 //! A fold that rests on itself is left by the response with its feature
 //! pairs at the thickness; the next solve, which knows nothing of them,
 //! presses them back within it, and every step's passes answer them again
-//! (thousands per step on `drape_sphere`, see BENCHMARKS). The pairs are the
-//! contacts the pipeline remembers (their influence, eq. 16: what snapshots,
-//! roll-backs and resumed bakes already restore) between cloth particles,
-//! taken in key order with their closest points at the current positions,
-//! and kept only where they rest: within `band` (a fraction of the
-//! thickness) of the thickness. Crossings just answered and pairs that slid
-//! apart fall outside it.
+//! (thousands per step on `drape_sphere`, see BENCHMARKS). So does cloth
+//! drawn taut over a sharp obstacle feature: a table's edge or a needle's
+//! tip, which the cloth's edges cut across within the thickness whenever
+//! the solve and the strain limits pull it straight (hundreds of pairs per
+//! step on `drape_table`, each pass's impulses and projections fighting
+//! over them). Only analytic colliders' sharp features count here: a body's
+//! skin or a mesh collider's triangles are left to the response alone
+//! (pushing a skirt's tiers off the skin in the solve raised their passing
+//! strain peaks, BENCHMARKS 2026-12-04 afternoon). The pairs are the
+//! contacts the pipeline remembers (their
+//! influence, eq. 16: what snapshots, roll-backs and resumed bakes already
+//! restore), taken in key order with their closest points at the step's
+//! start (obstacle points where their collider is then), and kept only
+//! where they rest: within `band` (a fraction of the thickness) of the
+//! thickness. Crossings just answered and pairs that slid apart fall
+//! outside it.
 
 use nalgebra::Vector3;
 
@@ -18,11 +27,16 @@ use super::CollisionPipeline;
 use super::geometry::{closest_between_segments, closest_on_triangle};
 use crate::sim::repulsion::Repulsion;
 
-/// Two cloth features resting on each other at a step's start.
+/// Two features resting on each other at a step's start: both the cloth's,
+/// or one the cloth's and one an obstacle's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RestingPair {
-    /// The four particles: vertex then triangle, or first edge then second.
+    /// The four points: vertex then triangle, or first edge then second
+    /// (cloth particles, or obstacle points numbered after them).
     pub nodes: [u32; 4],
+    /// Whether each point is a cloth particle, which the solve moves; the
+    /// others are obstacle points, which nothing pushes back.
+    pub on_cloth: [bool; 4],
     /// Weights whose sum `Σ wᵢ xᵢ` is the second feature's closest point to
     /// the first, seen from the first: `[1, −wa, −wb, −wc]` or
     /// `[1 − s, s, −(1 − t), −t]`.
@@ -35,43 +49,77 @@ pub struct RestingPair {
     pub thickness: f64,
 }
 
+impl RestingPair {
+    /// True when both features are the cloth's.
+    pub fn is_self_contact(&self) -> bool {
+        self.on_cloth.iter().all(|&c| c)
+    }
+}
+
 impl CollisionPipeline {
-    /// The repulsions of a step of `h` s starting at positions `x` (m), with
-    /// the resting pairs they push into `out`; `None` (and no pairs) when the
-    /// scene turns them off.
-    pub fn repulsion(&mut self, x: &[Vector3<f64>], h: f64, out: &mut Vec<RestingPair>) -> Option<Repulsion> {
-        let (stiffness, band) = (self.settings.repulsion_stiffness, self.settings.repulsion_band);
-        if stiffness == 0.0 {
-            out.clear();
+    /// The repulsions of a step of `h` s starting at time `t0` (s) with the
+    /// cloth at positions `x` (m), with the resting pairs they push into
+    /// `out`; `None` (and no pairs) when the scene turns them off.
+    pub fn repulsion(&mut self, x: &[Vector3<f64>], t0: f64, h: f64, out: &mut Vec<RestingPair>) -> Option<Repulsion> {
+        let settings = &self.settings;
+        let repulsion = Repulsion {
+            self_stiffness: settings.repulsion_stiffness,
+            feature_stiffness: settings.feature_repulsion_stiffness,
+            band: settings.repulsion_band,
+            h,
+        };
+        out.clear();
+        if repulsion.self_stiffness == 0.0 && repulsion.feature_stiffness == 0.0 {
             return None;
         }
-        self.resting_pairs(x, band, out);
-        Some(Repulsion { stiffness, band, h })
+        self.resting_pairs(x, t0, &repulsion, out);
+        Some(repulsion)
     }
 
-    /// The remembered contacts between cloth particles whose features lie
-    /// within `band` (a fraction of their thickness) of the thickness at
-    /// positions `x` (m), in key order, into `out`.
-    pub fn resting_pairs(&mut self, x: &[Vector3<f64>], band: f64, out: &mut Vec<RestingPair>) {
+    /// The remembered contacts whose features lie within the `repulsion`'s
+    /// band (a fraction of their thickness) of the thickness with the cloth
+    /// at positions `x` (m) and the obstacles where they are at time `t0`
+    /// (s), in key order, into `out`; only the kinds the repulsion pushes
+    /// (self-contacts, contacts with analytic colliders' sharp features).
+    pub fn resting_pairs(&mut self, x: &[Vector3<f64>], t0: f64, repulsion: &Repulsion, out: &mut Vec<RestingPair>) {
         out.clear();
         let cloth = self.particles.len() as u32;
+        // Points from here on are triangle meshes' (bodies): not features.
+        let first_mesh = cloth + self.obstacles.first_mesh_vertex;
+        let wanted = |key: &[u32; 5]| {
+            if key[1..].iter().all(|&i| i < cloth) {
+                repulsion.self_stiffness > 0.0
+            } else {
+                repulsion.feature_stiffness > 0.0 && key[1..].iter().all(|&i| i < first_mesh)
+            }
+        };
         let keys = &mut self.ws.resting_keys;
         keys.clear();
-        keys.extend(self.influence.keys().filter(|key| key[1..].iter().all(|&i| i < cloth)));
+        keys.extend(self.influence.keys().filter(|key| wanted(key)));
         keys.sort_unstable();
+        let obstacles = &self.obstacles;
+        let at = |i: u32| if i < cloth { x[i as usize] } else { obstacles.position((i - cloth) as usize, t0) };
         out.extend(keys.iter().filter_map(|key| {
             let nodes = [key[1], key[2], key[3], key[4]];
-            let thickness = nodes.iter().map(|&i| self.particles[i as usize].thickness).fold(0.0, f64::max);
-            let pair = pair_at(key[0], nodes, x, thickness)?;
-            ((pair.distance - thickness).abs() <= band * thickness).then_some(pair)
+            let on_cloth = nodes.map(|i| i < cloth);
+            let cloth_thickness = nodes.iter().filter(|&&i| i < cloth).map(|&i| self.particles[i as usize].thickness);
+            let thickness = cloth_thickness.fold(0.0, f64::max);
+            let pair = pair_at(key[0], nodes, on_cloth, nodes.map(at), thickness)?;
+            ((pair.distance - thickness).abs() <= repulsion.band * thickness).then_some(pair)
         }));
     }
 }
 
 /// The pair of `kind` (0 vertex-triangle, 1 edge-edge) between `nodes` at
-/// positions `x`, or `None` where its features touch.
-fn pair_at(kind: u32, nodes: [u32; 4], x: &[Vector3<f64>], thickness: f64) -> Option<RestingPair> {
-    let [a, b, c, d] = nodes.map(|i| x[i as usize]);
+/// positions `at` (m), or `None` where its features touch.
+fn pair_at(
+    kind: u32,
+    nodes: [u32; 4],
+    on_cloth: [bool; 4],
+    at: [Vector3<f64>; 4],
+    thickness: f64,
+) -> Option<RestingPair> {
+    let [a, b, c, d] = at;
     let weights = if kind == 0 {
         let [wa, wb, wc] = closest_on_triangle(&a, &b, &c, &d);
         [1.0, -wa, -wb, -wc]
@@ -81,32 +129,47 @@ fn pair_at(kind: u32, nodes: [u32; 4], x: &[Vector3<f64>], thickness: f64) -> Op
     };
     let gap = a * weights[0] + b * weights[1] + c * weights[2] + d * weights[3];
     let distance = gap.norm();
-    (distance > 0.0).then(|| RestingPair { nodes, weights, normal: gap / distance, distance, thickness })
+    (distance > 0.0).then(|| RestingPair { nodes, on_cloth, weights, normal: gap / distance, distance, thickness })
 }
 
 #[cfg(test)]
 mod tests {
+    use nalgebra::Isometry3;
+
     use super::*;
-    use crate::sim::collision::obstacles::{ClothScale, Obstacles};
+    use crate::sim::colliders::{Collider, Shape};
+    use crate::sim::collision::obstacles::{ClothScale, MeshCollider, Obstacles};
     use crate::sim::collision::{CollisionMemory, CollisionSettings, ParticleCollision};
+    use crate::sim::motion::Placement;
+
+    const THICKNESS: f64 = 0.0025;
+
+    /// A pipeline over `particles` cloth particles in `triangles`, the
+    /// features of the `analytic` colliders and the `meshes`.
+    fn pipeline(
+        particles: usize,
+        triangles: Vec<[u32; 3]>,
+        analytic: &[Collider],
+        meshes: &[MeshCollider],
+    ) -> CollisionPipeline {
+        let surface = ParticleCollision { thickness: THICKNESS, friction: 0.3, pinned: None };
+        let scale = ClothScale { longest_edge_m: 1.0, thinnest_m: THICKNESS };
+        let garment = vec![0; triangles.len()];
+        let obstacles = Obstacles::new(analytic, meshes, scale);
+        let settings = CollisionSettings::default();
+        CollisionPipeline::new(triangles, garment, vec![true], vec![surface; particles], obstacles, settings).unwrap()
+    }
+
+    fn repulsion(self_stiffness: f64, feature_stiffness: f64) -> Repulsion {
+        Repulsion { self_stiffness, feature_stiffness, band: 0.1, h: 1.0 / 60.0 }
+    }
 
     /// Of the remembered contacts, those between cloth particles resting
-    /// within the band of the thickness, in key order.
+    /// within the band of the thickness, in key order; with the obstacle
+    /// repulsion off, none with an obstacle's point.
     #[test]
     fn resting_pairs_are_the_remembered_cloth_contacts_at_the_thickness() {
-        let thickness = 0.0025;
-        let particles = vec![ParticleCollision { thickness, friction: 0.3, pinned: None }; 6];
-        let scale = ClothScale { longest_edge_m: 1.0, thinnest_m: thickness };
-        let settings = CollisionSettings::default();
-        let mut pipeline = CollisionPipeline::new(
-            vec![[0, 1, 2], [3, 4, 5]],
-            vec![0, 0],
-            vec![true],
-            particles,
-            Obstacles::new(&[], &[], scale),
-            settings,
-        )
-        .unwrap();
+        let mut pipeline = pipeline(6, vec![[0, 1, 2], [3, 4, 5]], &[], &[]);
         let remembered = [
             ([0, 0, 3, 4, 5], 1.0, true),  // 20 cm apart
             ([0, 3, 0, 1, 2], 1.0, true),  // at the thickness
@@ -119,15 +182,76 @@ mod tests {
             Vector3::new(0.0, 0.0, 0.0),
             Vector3::new(1.0, 0.0, 0.0),
             Vector3::new(0.0, 0.0, 1.0),
-            Vector3::new(0.2, thickness, 0.2),
-            Vector3::new(0.3, 1.05 * thickness, 0.1),
-            Vector3::new(0.2, 0.5 * thickness, 0.3),
+            Vector3::new(0.2, THICKNESS, 0.2),
+            Vector3::new(0.3, 1.05 * THICKNESS, 0.1),
+            Vector3::new(0.2, 0.5 * THICKNESS, 0.3),
         ];
         let mut pairs = Vec::new();
-        pipeline.resting_pairs(&x, 0.1, &mut pairs);
+        pipeline.resting_pairs(&x, 0.0, &repulsion(0.5, 0.0), &mut pairs);
         let nodes: Vec<[u32; 4]> = pairs.iter().map(|p| p.nodes).collect();
         assert_eq!(nodes, [[3, 0, 1, 2], [4, 0, 1, 2]]);
-        assert!((pairs[1].distance - 1.05 * thickness).abs() < 1e-12 && pairs[1].thickness == thickness);
+        assert!(pairs.iter().all(RestingPair::is_self_contact));
+        assert!((pairs[1].distance - 1.05 * THICKNESS).abs() < 1e-12 && pairs[1].thickness == THICKNESS);
+    }
+
+    /// A cloth edge drawn over a box's top edge and a cloth triangle lying
+    /// on its corner rest on the obstacle: measured from where the box is,
+    /// with its points marked as no cloth's, and left out when the feature
+    /// repulsion is off. A mesh collider's vertex under the cloth is never a
+    /// resting feature.
+    #[test]
+    fn cloth_resting_on_an_obstacle_feature_rests_against_the_obstacle_where_it_is() {
+        // A 1 m box whose top face is y = 0; corner 2 is (−0.5, 0, −0.5),
+        // corner 3 (0.5, 0, −0.5) and corner 7 (0.5, 0, 0.5).
+        let table = Collider {
+            name: "table".into(),
+            shape: Shape::Box { half_extents: Vector3::repeat(0.5) },
+            placement: Placement { rest_pose: Isometry3::translation(0.0, -0.5, 0.0), motion: None },
+            friction: None,
+        };
+        // A mesh tetrahedron with its apex at (0.55, 0, 0.55), under the same triangle.
+        let apex = Vector3::new(0.55, 0.0, 0.55);
+        let tetrahedron = MeshCollider {
+            name: "tetrahedron".into(),
+            vertices: vec![
+                apex,
+                apex - Vector3::new(0.1, 0.1, 0.0),
+                apex - Vector3::new(0.0, 0.1, 0.1),
+                apex - Vector3::y() * 0.1,
+            ],
+            triangles: vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]],
+            placement: Placement { rest_pose: Isometry3::identity(), motion: None },
+            friction: None,
+            animation: None,
+        };
+        let mut pipeline = pipeline(5, vec![[0, 1, 2], [2, 3, 4]], &[table], &[tetrahedron]);
+        let corner = |k: u32| 5 + k;
+        let mesh_apex = 5 + 8;
+        let remembered = [
+            ([1, 0, 1, corner(2), corner(3)], 1.0, true), // a cloth edge across the top edge
+            ([0, corner(7), 2, 3, 4], 1.0, true),         // the corner under a cloth triangle
+            ([0, mesh_apex, 2, 3, 4], 1.0, true),         // a mesh's vertex under it
+        ];
+        pipeline.restore_memory(&CollisionMemory::from_entries(&remembered));
+        let lifted = 1.05 * THICKNESS;
+        let x = [
+            Vector3::new(0.0, THICKNESS, -0.6),
+            Vector3::new(0.0, THICKNESS, -0.4),
+            Vector3::new(0.4, lifted, 0.4),
+            Vector3::new(0.7, lifted, 0.4),
+            Vector3::new(0.4, lifted, 0.7),
+        ];
+        let mut pairs = Vec::new();
+        pipeline.resting_pairs(&x, 0.0, &repulsion(0.5, 10.0), &mut pairs);
+        let nodes: Vec<[u32; 4]> = pairs.iter().map(|p| p.nodes).collect();
+        assert_eq!(nodes, [[corner(7), 2, 3, 4], [0, 1, corner(2), corner(3)]]);
+        assert_eq!(pairs[0].on_cloth, [false, true, true, true]);
+        assert_eq!(pairs[1].on_cloth, [true, true, false, false]);
+        assert!((pairs[0].distance - lifted).abs() < 1e-12 && (pairs[0].normal + Vector3::y()).norm() < 1e-12);
+        assert!((pairs[1].distance - THICKNESS).abs() < 1e-12 && (pairs[1].normal - Vector3::y()).norm() < 1e-12);
+        assert!(pairs.iter().all(|p| p.thickness == THICKNESS && !p.is_self_contact()));
+        pipeline.resting_pairs(&x, 0.0, &repulsion(0.5, 0.0), &mut pairs);
+        assert!(pairs.is_empty(), "{pairs:?}");
     }
 
     #[test]
@@ -138,7 +262,7 @@ mod tests {
             Vector3::new(1.0, 0.0, 0.0),
             Vector3::new(0.0, 0.0, 1.0),
         ];
-        let pair = pair_at(0, [0, 1, 2, 3], &x, 0.0025).unwrap();
+        let pair = pair_at(0, [0, 1, 2, 3], [true; 4], x, 0.0025).unwrap();
         assert!((pair.distance - 0.0025).abs() < 1e-15);
         assert!((pair.normal - Vector3::y()).norm() < 1e-12);
         let expected = [1.0, -0.5, -0.25, -0.25];
@@ -153,7 +277,7 @@ mod tests {
             Vector3::new(0.0, 0.0, -1.0),
             Vector3::new(0.0, 0.0, 3.0),
         ];
-        let pair = pair_at(1, [0, 1, 2, 3], &x, 0.0025).unwrap();
+        let pair = pair_at(1, [0, 1, 2, 3], [true; 4], x, 0.0025).unwrap();
         assert!((pair.distance - 0.003).abs() < 1e-15);
         let expected = [0.5, 0.5, -0.75, -0.25];
         assert!(pair.weights.iter().zip(expected).all(|(w, e)| (w - e).abs() < 1e-12), "{:?}", pair.weights);
