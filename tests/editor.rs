@@ -92,7 +92,7 @@ fn moving_the_stretch_slider_changes_the_workers_fabric() {
 
 /// The collision panel (PAPER Fig. 10c): the garment's contact thickness and
 /// friction change live, the same values the fabric panel shows; a pipeline
-/// setting restarts the simulation with the scene edited.
+/// setting (constraint sweeps, the edge repulsion) restarts the simulation with the scene edited.
 #[test]
 fn the_collision_panel_edits_contact_live_and_the_pipeline_by_restart() {
     let dir = tempfile::tempdir().unwrap();
@@ -113,9 +113,12 @@ fn the_collision_panel_edits_contact_live_and_the_pipeline_by_restart() {
 
     h.get_by_role_and_label(Role::SpinButton, "Constraint sweeps").set_value_accesskit(12.0);
     h.run_steps(2);
+    h.get_by_role_and_label(Role::Slider, "Edge repulsion").set_value_accesskit(45.0);
+    h.run_steps(2);
     h.state_mut().finish_loading();
     h.run_steps(3);
-    assert_eq!(h.state().scene.file.collision.constraint_sweeps, 12);
+    let collision = &h.state().scene.file.collision;
+    assert_eq!((collision.constraint_sweeps, collision.feature_repulsion_stiffness_n_per_m), (12, 45.0));
     assert_eq!(h.state().scene.garments[0].fabric.thickness_m, 0.004, "the live edit survives the restart");
 }
 
