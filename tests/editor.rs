@@ -92,7 +92,9 @@ fn moving_the_stretch_slider_changes_the_workers_fabric() {
 
 /// The collision panel (PAPER Fig. 10c): the garment's contact thickness and
 /// friction change live, the same values the fabric panel shows; a pipeline
-/// setting (constraint sweeps, the edge repulsion) restarts the simulation with the scene edited.
+/// setting restarts the simulation with the scene edited, and a second one
+/// (the edge repulsion) made while the first (constraint sweeps) may still be
+/// loading keeps the first.
 #[test]
 fn the_collision_panel_edits_contact_live_and_the_pipeline_by_restart() {
     let dir = tempfile::tempdir().unwrap();

@@ -19,7 +19,7 @@ use super::worker::{Command, Event, Stop, Worker};
 use crate::io::atomic::write_file;
 use crate::render::{LightRig, OrbitCamera};
 use crate::scene::Scene;
-use crate::scene::file::MeshSpec;
+use crate::scene::file::{MeshSpec, SceneFile};
 use crate::scene::preset::Preset;
 use crate::sim::fabric::Fabric;
 
@@ -162,6 +162,10 @@ pub struct Editor {
     pub reference_job: Option<Job<Reference>>,
     /// A scene being loaded or re-resolved in the background.
     loading: Option<Receiver<Result<Scene, String>>>,
+    /// The scene file of the edit being resolved in the background: the
+    /// panels show it and later edits build on it, so a second edit made
+    /// before the first is loaded does not undo it.
+    edited: Option<SceneFile>,
     /// The window should close (set once the user confirmed).
     pub quit: bool,
     /// Asking whether to discard unsaved changes.
@@ -205,6 +209,7 @@ impl Editor {
             reference: None,
             reference_job: None,
             loading: None,
+            edited: None,
             quit: false,
             confirm_quit: false,
         };

@@ -199,7 +199,7 @@ fn garment_fields(ui: &mut Ui, editor: &mut Editor) {
     if let Some(path) = path_row(ui, editor, Field::Garment, "Load OBJ", "garment.obj") {
         editor.use_garment_mesh(path);
     }
-    let Some(spec) = editor.scene.file.garments.get(g) else { return };
+    let Some(spec) = editor.scene_file().garments.get(g) else { return };
     let (mut translation, mut rotation, mut scale) = (spec.translation_m, spec.rotation_deg, spec.scale);
     let mut changed = false;
     egui::Grid::new("garment transform").num_columns(2).show(ui, |ui| {
@@ -295,8 +295,8 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
     }
     ui.separator();
     ui.label("These restart the simulation:");
-    let mut settings = editor.scene.file.collision.clone();
-    let mut self_collision = editor.scene.file.garments.get(g).is_some_and(|s| s.self_collision);
+    let mut settings = editor.scene_file().collision.clone();
+    let mut self_collision = editor.scene_file().garments.get(g).is_some_and(|s| s.self_collision);
     let mut changed = false;
     changed |=
         ui.checkbox(&mut self_collision, "Self-collision").on_hover_text("Keep the garment out of itself").changed();

@@ -28,11 +28,22 @@ impl Editor {
     /// background (new garment mesh, body, transform, collision settings); on
     /// failure the current scene stays and the error is shown.
     pub fn edit_scene(&mut self, edit: impl FnOnce(&mut SceneFile)) {
-        let mut file = self.scene.to_file();
+        let mut file = match self.edited.take() {
+            Some(pending) if self.is_loading() => pending,
+            _ => self.scene.to_file(),
+        };
         edit(&mut file);
         let path = self.scene.source.clone().unwrap_or_else(|| PathBuf::from(format!("{}.toml", self.scene.name)));
-        self.start_loading(move || Scene::resolve(file, &path).map_err(|e| e.to_string()));
+        let resolved = file.clone();
+        self.start_loading(move || Scene::resolve(resolved, &path).map_err(|e| e.to_string()));
+        self.edited = Some(file);
         self.dirty = true;
+    }
+
+    /// The scene file as the panels show it: with the edit being loaded, if
+    /// any.
+    pub fn scene_file(&self) -> &SceneFile {
+        self.edited.as_ref().unwrap_or(&self.scene.file)
     }
 
     /// Replaces the selected garment's mesh with the OBJ at `path`.
@@ -85,6 +96,7 @@ impl Editor {
             let _ = sender.send(load());
         });
         self.loading = Some(receiver);
+        self.edited = None;
     }
 
     /// True while a scene is being loaded.
@@ -94,6 +106,7 @@ impl Editor {
 
     /// Waits for a scene being loaded (tests).
     pub fn finish_loading(&mut self) {
+        self.edited = None;
         if let Some(Ok(result)) = self.loading.take().map(|receiver| receiver.recv()) {
             self.loaded(result);
         }
@@ -103,12 +116,12 @@ impl Editor {
         let Some(receiver) = &self.loading else { return };
         match receiver.try_recv() {
             Ok(result) => {
-                self.loading = None;
+                (self.loading, self.edited) = (None, None);
                 self.loaded(result);
             }
             Err(std::sync::mpsc::TryRecvError::Empty) => {}
             Err(std::sync::mpsc::TryRecvError::Disconnected) => {
-                self.loading = None;
+                (self.loading, self.edited) = (None, None);
                 self.tell("loading the scene failed unexpectedly", true);
             }
         }
