@@ -20,10 +20,19 @@ fn standard(name: &str) -> PathBuf {
 
 /// A standard scene with its garment meshed more coarsely.
 fn reduced(name: &str, resolution: usize) -> Scene {
-    Scene::load_edited(&standard(name), |file: &mut SceneFile| match &mut file.garments[0].mesh {
-        MeshSpec::Grid { resolution: n, .. } => *n = resolution,
-        MeshSpec::Tube { around, along, .. } => (*around, *along) = (resolution, resolution),
-        other => panic!("{name}: unexpected mesh {other:?}"),
+    reduced_with(name, resolution, |_| {})
+}
+
+/// A standard scene with its garment meshed more coarsely and `edit` made
+/// to its file.
+fn reduced_with(name: &str, resolution: usize, edit: impl FnOnce(&mut SceneFile)) -> Scene {
+    Scene::load_edited(&standard(name), |file: &mut SceneFile| {
+        match &mut file.garments[0].mesh {
+            MeshSpec::Grid { resolution: n, .. } => *n = resolution,
+            MeshSpec::Tube { around, along, .. } => (*around, *along) = (resolution, resolution),
+            other => panic!("{name}: unexpected mesh {other:?}"),
+        }
+        edit(file);
     })
     .unwrap_or_else(|e| panic!("{e}"))
 }
@@ -169,13 +178,7 @@ fn a_coarse_cloth_does_not_bow_into_a_small_sphere() {
 #[test]
 fn resting_folds_are_pushed_apart_in_the_solve() {
     let contacts = |stiffness: f64| {
-        let scene = Scene::load_edited(&standard("drape_sphere"), |file: &mut SceneFile| {
-            if let MeshSpec::Grid { resolution, .. } = &mut file.garments[0].mesh {
-                *resolution = 40;
-            }
-            file.collision.repulsion_stiffness_n_per_m = stiffness;
-        })
-        .unwrap_or_else(|e| panic!("{e}"));
+        let scene = reduced_with("drape_sphere", 40, |file| file.collision.repulsion_stiffness_n_per_m = stiffness);
         let records = assert_never_intersects(&scene);
         records.iter().map(|r| u64::from(r.triangle_contacts)).sum::<u64>()
     };
@@ -193,13 +196,8 @@ fn resting_folds_are_pushed_apart_in_the_solve() {
 #[test]
 fn cloth_drawn_over_a_table_edge_is_pushed_off_it_in_the_solve() {
     let bake = |stiffness: f64| {
-        let scene = Scene::load_edited(&standard("drape_table"), |file: &mut SceneFile| {
-            if let MeshSpec::Grid { resolution, .. } = &mut file.garments[0].mesh {
-                *resolution = 48;
-            }
-            file.collision.feature_repulsion_stiffness_n_per_m = stiffness;
-        })
-        .unwrap_or_else(|e| panic!("{e}"));
+        let edit = |file: &mut SceneFile| file.collision.feature_repulsion_stiffness_n_per_m = stiffness;
+        let scene = reduced_with("drape_table", 48, edit);
         let records = assert_never_intersects(&scene);
         let sum = |of: &dyn Fn(&FrameRecord) -> u32| records.iter().map(|r| u64::from(of(r))).sum::<u64>();
         let largest_strain = records.iter().map(|r| r.max_free_strain).fold(0.0, f64::max);
