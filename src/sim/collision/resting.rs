@@ -140,7 +140,7 @@ mod tests {
     use crate::sim::colliders::{Collider, Shape};
     use crate::sim::collision::obstacles::{ClothScale, MeshCollider, Obstacles};
     use crate::sim::collision::{CollisionMemory, CollisionSettings, ParticleCollision};
-    use crate::sim::motion::Placement;
+    use crate::sim::motion::{Placement, RigidMotion};
 
     const THICKNESS: f64 = 0.0025;
 
@@ -252,6 +252,37 @@ mod tests {
         assert!(pairs.iter().all(|p| p.thickness == THICKNESS && !p.is_self_contact()));
         pipeline.resting_pairs(&x, 0.0, &repulsion(0.5, 0.0), &mut pairs);
         assert!(pairs.is_empty(), "{pairs:?}");
+    }
+
+    /// A moving collider's feature is measured where the collider is at the
+    /// step's start: a box sliding along x by 1 m/s, a cloth edge resting
+    /// across its top edge where that edge is at 2 s.
+    #[test]
+    fn a_moving_feature_is_measured_where_its_collider_is_at_the_step_start() {
+        let motion = RigidMotion {
+            velocity: Vector3::x(),
+            angular_velocity: Vector3::zeros(),
+            pivot: Vector3::zeros(),
+            start: 0.0,
+            end: f64::INFINITY,
+        };
+        let sliding = Collider {
+            name: "sliding box".into(),
+            shape: Shape::Box { half_extents: Vector3::repeat(0.5) },
+            placement: Placement { rest_pose: Isometry3::translation(0.0, -0.5, 0.0), motion: Some(motion) },
+            friction: None,
+        };
+        let mut pipeline = pipeline(3, vec![[0, 1, 2]], &[sliding], &[]);
+        // Corners 2 and 6 span the box's top edge along z at x = −0.5 (at rest).
+        let remembered = [([1, 0, 1, 3 + 2, 3 + 6], 1.0, true)];
+        pipeline.restore_memory(&CollisionMemory::from_entries(&remembered));
+        let x = [Vector3::new(1.3, THICKNESS, 0.0), Vector3::new(1.7, THICKNESS, 0.0), Vector3::new(1.5, 0.1, 0.5)];
+        let mut pairs = Vec::new();
+        pipeline.resting_pairs(&x, 2.0, &repulsion(0.5, 30.0), &mut pairs);
+        assert_eq!(pairs.len(), 1, "at 2 s the edge lies under the cloth: {pairs:?}");
+        assert!((pairs[0].distance - THICKNESS).abs() < 1e-12 && (pairs[0].normal - Vector3::y()).norm() < 1e-12);
+        pipeline.resting_pairs(&x, 0.0, &repulsion(0.5, 30.0), &mut pairs);
+        assert!(pairs.is_empty(), "at the start the edge is 2 m away: {pairs:?}");
     }
 
     #[test]
