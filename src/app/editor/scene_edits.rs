@@ -28,10 +28,9 @@ impl Editor {
     /// background (new garment mesh, body, transform, collision settings); on
     /// failure the current scene stays and the error is shown.
     pub fn edit_scene(&mut self, edit: impl FnOnce(&mut SceneFile)) {
-        let mut file = match self.edited.take() {
-            Some(pending) if self.is_loading() => pending,
-            _ => self.scene.to_file(),
-        };
+        // Only an edit still loading leaves a file behind (every load's end
+        // drops it).
+        let mut file = self.edited.take().unwrap_or_else(|| self.scene.to_file());
         edit(&mut file);
         let path = self.scene.source.clone().unwrap_or_else(|| PathBuf::from(format!("{}.toml", self.scene.name)));
         let resolved = file.clone();

@@ -296,7 +296,8 @@ struct Workspace {
     /// `(obstacle triangle, cloth triangle)` pairs of a broad phase.
     mesh_pairs: Vec<(u32, u32)>,
     hits: Vec<u32>,
-    /// The remembered contacts between cloth particles, sorted: scratch of
+    /// The remembered contacts the repulsions may push (self-contacts and
+    /// contacts with sharp features), sorted: scratch of
     /// [`CollisionPipeline::resting_pairs`].
     resting_keys: Vec<[u32; 5]>,
     jobs: Vec<Job>,

@@ -68,8 +68,8 @@ impl CollisionPipeline {
             band: settings.repulsion_band,
             h,
         };
-        out.clear();
         if repulsion.self_stiffness == 0.0 && repulsion.feature_stiffness == 0.0 {
+            out.clear();
             return None;
         }
         self.resting_pairs(x, t0, &repulsion, out);
@@ -102,8 +102,8 @@ impl CollisionPipeline {
         out.extend(keys.iter().filter_map(|key| {
             let nodes = [key[1], key[2], key[3], key[4]];
             let on_cloth = nodes.map(|i| i < cloth);
-            let cloth_thickness = nodes.iter().filter(|&&i| i < cloth).map(|&i| self.particles[i as usize].thickness);
-            let thickness = cloth_thickness.fold(0.0, f64::max);
+            let cloth_nodes = nodes.iter().filter(|&&i| i < cloth);
+            let thickness = cloth_nodes.map(|&i| self.particles[i as usize].thickness).fold(0.0, f64::max);
             let pair = pair_at(key[0], nodes, on_cloth, nodes.map(at), thickness)?;
             ((pair.distance - thickness).abs() <= repulsion.band * thickness).then_some(pair)
         }));
