@@ -1,7 +1,12 @@
 //! The fail-safe: rigid impact zones (Provot 1997, Bridson et al. 2002).
 //! Points whose features still cross after the impulse passes are merged into
 //! zones that move rigidly, or with the kinematic point they hold, until
-//! nothing crosses. After each round the pass hook corrects the result (a
+//! nothing crosses. A zone that holds kinematic points moving differently
+//! (pins turning against each other) has no rigid motion that follows them
+//! all; it moves with their motions blended by distance, rigid to within
+//! round-off near each group, which is no proof that nothing crosses but
+//! frees what following one group alone never could (BENCHMARKS,
+//! 2026-12-04 evening). After each round the pass hook corrects the result (a
 //! point a zone carried into an analytic collider is moved out); a point it
 //! moves is held on that path, kinematic, for the rest of the step, so the
 //! next rounds move its zone around it instead of back into the collider.
@@ -13,6 +18,7 @@ use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaterni
 use super::detect::{Detection, Scope};
 use super::response::{Points, PrescribedEnd, rigidify};
 use super::{CollisionPipeline, CollisionReport, Kinematic, PassHook, ResponseStage};
+use crate::sim::contact::StepWindow;
 
 impl CollisionPipeline {
     /// Rigid impact zones until nothing crosses (or the rounds run out), run
@@ -22,7 +28,7 @@ impl CollisionPipeline {
     /// left.
     pub(super) fn impact_zones(
         &mut self,
-        window: crate::sim::contact::StepWindow,
+        window: StepWindow,
         after_round: PassHook,
         report: &mut CollisionReport,
     ) -> (u32, u32) {
@@ -61,37 +67,9 @@ impl CollisionPipeline {
                     .iter()
                     .filter_map(|&(_, i)| Some((i, self.kinematic(i)?)))
                     .collect();
-                // A zone holding a deforming point (a body's skin) first moves
-                // with the rigid motion that best fits its kinematic points; if
-                // that has not freed it within half the rounds (cloth pinched
-                // between two parts of the body moving apart), each free point
-                // moves with its nearest kinematic point. A zone holding only
-                // rigid bodies moves with the rigid body it holds.
-                let deforming = kinematic.iter().any(|(_, k)| *k == Kinematic::Deforming);
-                let anchors: Vec<(Vector3<f64>, Vector3<f64>)> = match deforming {
-                    true => {
-                        kinematic.iter().map(|&(i, _)| (self.ws.start[i as usize], self.ws.end[i as usize])).collect()
-                    }
-                    false => Vec::new(),
-                };
-                let per_point = deforming && round > self.settings.zone_rounds / 2;
-                let rigid = match deforming {
-                    true => Some(rigid_fit(anchors.iter().copied())),
-                    false => kinematic.iter().find_map(|(_, k)| match k {
-                        Kinematic::Rigid(p) => {
-                            Some(p.world_from_local(window.t1) * p.world_from_local(window.t0).inverse())
-                        }
-                        Kinematic::Deforming => None,
-                    }),
-                };
-                let carry = move |p: &Vector3<f64>| -> Vector3<f64> {
-                    match (per_point, rigid) {
-                        (true, _) => p + nearest_displacement(&anchors, p),
-                        (false, Some(step)) => (step * Point3::from(*p)).coords,
-                        (false, None) => *p,
-                    }
-                };
-                let carried = rigid.is_some();
+                let motion = self.zone_motion(&kinematic, round, window);
+                let carried = !matches!(motion, ZoneMotion::Free);
+                let carry = move |p: &Vector3<f64>| motion.end(p);
                 let ws = &mut self.ws;
                 let mut points = Points {
                     start: &ws.start,
@@ -108,6 +86,31 @@ impl CollisionPipeline {
             self.ws.contacts = crossings;
             self.run_hook(after_round, ResponseStage::ImpactZones);
             report.response += clock.elapsed();
+        }
+    }
+
+    /// How a zone whose kinematic points are `kinematic` moves in round
+    /// `round` of a step over `window`. A zone holding a deforming point (a
+    /// body's skin) first moves with the rigid motion that best fits its
+    /// kinematic points; if that has not freed it within half the rounds
+    /// (cloth pinched between two parts of the body moving apart), each free
+    /// point moves with its nearest kinematic point. A zone holding rigid
+    /// points that all move alike moves with them; one holding rigid points
+    /// that move apart (a cloth wrung between two pins turning against each
+    /// other) blends their motions.
+    fn zone_motion(&self, kinematic: &[(u32, Kinematic)], round: u32, window: StepWindow) -> ZoneMotion {
+        if kinematic.iter().any(|(_, k)| *k == Kinematic::Deforming) {
+            let anchors = kinematic.iter().map(|&(i, _)| (self.ws.start[i as usize], self.ws.end[i as usize]));
+            return match round > self.settings.zone_rounds / 2 {
+                true => ZoneMotion::Nearest(anchors.collect()),
+                false => ZoneMotion::Rigid(rigid_fit(anchors)),
+            };
+        }
+        let mut moves = rigid_moves(kinematic, &self.ws.start, window);
+        match moves.len() {
+            0 => ZoneMotion::Free,
+            1 => ZoneMotion::Rigid(moves.remove(0).step),
+            _ => ZoneMotion::Blended(moves),
         }
     }
 
@@ -160,6 +163,92 @@ fn nearest_displacement(anchors: &[(Vector3<f64>, Vector3<f64>)], p: &Vector3<f6
         .map_or_else(Vector3::zeros, |(start, end)| end - start)
 }
 
+/// How the free points of an impact zone move over the step.
+enum ZoneMotion {
+    /// Rigidly, keeping their momentum: the zone holds no kinematic point.
+    Free,
+    /// With one rigid motion, from the step's start to its end.
+    Rigid(Isometry3<f64>),
+    /// Each with the displacement of its nearest anchor (start, end).
+    Nearest(Vec<(Vector3<f64>, Vector3<f64>)>),
+    /// With several rigid motions blended by distance ([`blended_end`]).
+    Blended(Vec<RigidMove>),
+}
+
+impl ZoneMotion {
+    /// Where a point starting at `p` (m) ends the step, m (`p` itself for a
+    /// free zone, which [`rigidify`] moves instead).
+    fn end(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        match self {
+            ZoneMotion::Free => *p,
+            ZoneMotion::Rigid(step) => (step * Point3::from(*p)).coords,
+            ZoneMotion::Nearest(anchors) => p + nearest_displacement(anchors, p),
+            ZoneMotion::Blended(moves) => blended_end(moves, p),
+        }
+    }
+}
+
+/// One rigid motion over the step that some of a zone's kinematic points
+/// follow: a pinned ring, or a collider.
+struct RigidMove {
+    /// From the step's start to its end.
+    step: Isometry3<f64>,
+    /// Where the points that follow it start, m.
+    starts: Vec<Vector3<f64>>,
+}
+
+/// Two steps closer than this (m of translation, rad of rotation) are one
+/// motion: still colliders at different poses all make the identity, up to
+/// round-off.
+const SAME_MOTION: f64 = 1e-12;
+
+/// The distinct rigid motions of a zone's rigid kinematic points (`(point,
+/// motion)`, `start` positions indexed by point) over `window`, in the
+/// order they first appear.
+fn rigid_moves(kinematic: &[(u32, Kinematic)], start: &[Vector3<f64>], window: StepWindow) -> Vec<RigidMove> {
+    let mut moves: Vec<RigidMove> = Vec::new();
+    for &(i, k) in kinematic {
+        let Kinematic::Rigid(placement) = k else { continue };
+        let step = placement.world_from_local(window.t1) * placement.world_from_local(window.t0).inverse();
+        let same = |m: &&mut RigidMove| {
+            (m.step.translation.vector - step.translation.vector).norm() <= SAME_MOTION
+                && same_rotation(&m.step.rotation, &step.rotation)
+        };
+        match moves.iter_mut().find(same) {
+            Some(m) => m.starts.push(start[i as usize]),
+            None => moves.push(RigidMove { step, starts: vec![start[i as usize]] }),
+        }
+    }
+    moves
+}
+
+/// Whether two rotations differ by less than [`SAME_MOTION`] (their unit
+/// quaternions, either sign, are that close: about half the angle between).
+fn same_rotation(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) -> bool {
+    let (a, b) = (a.coords, b.coords);
+    (a - b).norm().min((a + b).norm()) <= SAME_MOTION
+}
+
+/// Where a point starting at `p` ends under rigid motions that pull apart:
+/// each motion's end for it, weighted by the inverse square of its distance
+/// to the nearest point following that motion (Shepard interpolation). Near
+/// one group of points the map is that group's rigid motion; between them it
+/// turns smoothly from one to the other, so points near each other move
+/// nearly alike wherever they are.
+fn blended_end(moves: &[RigidMove], p: &Vector3<f64>) -> Vector3<f64> {
+    let (mut weighted, mut total) = (Vector3::zeros(), 0.0);
+    for m in moves {
+        let end = (m.step * Point3::from(*p)).coords;
+        let nearest = m.starts.iter().map(|s| (s - p).norm_squared()).fold(f64::INFINITY, f64::min);
+        if nearest == 0.0 {
+            return end;
+        }
+        weighted += end / nearest;
+        total += 1.0 / nearest;
+    }
+    if total > 0.0 { weighted / total } else { *p }
+}
+
 /// The rigid motion that best maps each pair's first point onto its second
 /// (least squares, Kabsch): the translation of the centroids and the rotation
 /// from the SVD of the cross-covariance. With fewer than three points, or all
@@ -188,6 +277,7 @@ fn rigid_fit(pairs: impl Iterator<Item = (Vector3<f64>, Vector3<f64>)> + Clone) 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::motion::{Placement, RigidMotion};
 
     #[test]
     fn a_point_follows_the_nearest_anchor() {
@@ -195,6 +285,63 @@ mod tests {
         assert_eq!(nearest_displacement(&anchors, &Vector3::new(0.0, 0.2, 0.0)), Vector3::x());
         assert_eq!(nearest_displacement(&anchors, &Vector3::new(0.0, 0.9, 0.0)), -Vector3::z());
         assert_eq!(nearest_displacement(&[], &Vector3::zeros()), Vector3::zeros());
+    }
+
+    /// A placement at `rest` turning about the X axis at `deg_per_s`.
+    fn turning(rest: Vector3<f64>, deg_per_s: f64) -> Placement {
+        let motion = RigidMotion {
+            velocity: Vector3::zeros(),
+            angular_velocity: Vector3::new(deg_per_s.to_radians(), 0.0, 0.0),
+            pivot: Vector3::zeros(),
+            start: 0.0,
+            end: f64::INFINITY,
+        };
+        Placement { rest_pose: Isometry3::translation(rest.x, rest.y, rest.z), motion: Some(motion) }
+    }
+
+    fn still(rest: Vector3<f64>) -> Placement {
+        Placement { rest_pose: Isometry3::translation(rest.x, rest.y, rest.z), motion: None }
+    }
+
+    const WINDOW: StepWindow = StepWindow { t0: 0.3, t1: 0.3 + 1.0 / 60.0 };
+
+    #[test]
+    fn kinematic_points_are_grouped_by_how_they_move() {
+        let start: Vec<Vector3<f64>> = (0..6).map(|i| Vector3::new(i as f64, 0.1, 0.0)).collect();
+        let kinematic = [
+            (0, Kinematic::Rigid(turning(Vector3::zeros(), 180.0))),
+            (1, Kinematic::Rigid(still(Vector3::new(0.3, 0.0, 0.0)))),
+            (2, Kinematic::Rigid(turning(Vector3::zeros(), -180.0))),
+            (3, Kinematic::Rigid(turning(Vector3::zeros(), 180.0))),
+            // Two still colliders at different poses both stay put.
+            (4, Kinematic::Rigid(still(Vector3::new(-2.0, 1.0, 0.5)))),
+            (5, Kinematic::Deforming),
+        ];
+        let moves = rigid_moves(&kinematic, &start, WINDOW);
+        let starts: Vec<Vec<Vector3<f64>>> = moves.iter().map(|m| m.starts.clone()).collect();
+        assert_eq!(starts, vec![vec![start[0], start[3]], vec![start[1], start[4]], vec![start[2]]]);
+        // 180 °/s for 1/60 s: 3° about X.
+        let turned = moves[0].step * Point3::new(0.0, 0.1, 0.0);
+        let three = 3f64.to_radians();
+        assert!((turned.coords - Vector3::new(0.0, 0.1 * three.cos(), 0.1 * three.sin())).norm() < 1e-12, "{turned}");
+    }
+
+    #[test]
+    fn a_blended_point_follows_the_motion_it_is_near_and_turns_smoothly_between() {
+        let left = RigidMove { step: Isometry3::translation(0.0, 0.01, 0.0), starts: vec![Vector3::zeros()] };
+        let right =
+            RigidMove { step: Isometry3::translation(0.0, -0.01, 0.0), starts: vec![Vector3::new(1.0, 0.0, 0.0)] };
+        let moves = [left, right];
+        let end = |x: f64| blended_end(&moves, &Vector3::new(x, 0.0, 0.0)) - Vector3::new(x, 0.0, 0.0);
+        assert_eq!(end(0.0), Vector3::new(0.0, 0.01, 0.0), "on a point of the first motion: exactly it");
+        assert_eq!(end(1.0), Vector3::new(0.0, -0.01, 0.0));
+        assert!(end(0.5).norm() < 1e-15, "halfway: the mean");
+        // Inverse-square weights: at a fifth of the way, 16 : 1.
+        assert!((end(0.2).y - 0.01 * 15.0 / 17.0).abs() < 1e-15, "{}", end(0.2));
+        // Neighbours 1 mm apart move alike to within a small part of that.
+        let most = (0..1000).map(|k| (end((k + 1) as f64 * 1e-3) - end(k as f64 * 1e-3)).norm()).fold(0.0, f64::max);
+        assert!(most < 1e-4, "{most}");
+        assert_eq!(blended_end(&[], &Vector3::x()), Vector3::x());
     }
 
     #[test]
