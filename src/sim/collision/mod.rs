@@ -343,6 +343,9 @@ struct Workspace {
     /// Indices into `contacts` of the eq. 16 constraint set of this pass.
     constraint_set: Vec<usize>,
     zones: Zones,
+    /// The free points joined by this step's crossings alone, which move
+    /// rigidly together inside a zone whose kinematic points move apart.
+    inner_zones: Zones,
     /// Which points are the root of a zone being made rigid this round.
     zone_root: Vec<bool>,
     /// `(zone root, member)` of every point in such a zone, sorted.

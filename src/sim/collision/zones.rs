@@ -4,9 +4,13 @@
 //! nothing crosses. A zone that holds kinematic points moving differently
 //! (pins turning against each other) has no rigid motion that follows them
 //! all; it moves with their motions blended by distance, rigid to within
-//! round-off near each group, which is no proof that nothing crosses but
-//! frees what following one group alone never could (BENCHMARKS,
-//! 2026-12-04 evening). After each round the pass hook corrects the result (a
+//! round-off near each group, and the free points that this step's
+//! crossings join move rigidly together inside it (the motion that best
+//! fits the blend over them), so features that cross because the blend
+//! moves their points unevenly are resolved as in a rigid zone. The zone as
+//! a whole is not rigid, so this is no proof that nothing crosses; it frees
+//! what following one group alone never could (BENCHMARKS, 2026-12-04
+//! evening). After each round the pass hook corrects the result (a
 //! point a zone carried into an analytic collider is moved out); a point it
 //! moves is held on that path, kinematic, for the rest of the step, so the
 //! next rounds move its zone around it instead of back into the collider.
@@ -34,6 +38,7 @@ impl CollisionPipeline {
     ) -> (u32, u32) {
         let total = self.ws.start.len();
         self.ws.zones.reset(total);
+        self.ws.inner_zones.reset(total);
         let mut round = 0;
         loop {
             // The first round follows the impulse passes' last (proximity)
@@ -57,6 +62,7 @@ impl CollisionPipeline {
                         self.ws.zones.join(c.nodes[0], c.nodes[k]);
                     }
                 }
+                self.join_free_points(c);
             }
             self.group_zones(&crossings);
             let mut start = 0;
@@ -68,6 +74,11 @@ impl CollisionPipeline {
                     .filter_map(|&(_, i)| Some((i, self.kinematic(i)?)))
                     .collect();
                 let motion = self.zone_motion(&kinematic, round, window);
+                if let ZoneMotion::Blended(moves) = &motion {
+                    self.move_blended(start..end, moves, window.h());
+                    start = end;
+                    continue;
+                }
                 let carried = !matches!(motion, ZoneMotion::Free);
                 let carry = move |p: &Vector3<f64>| motion.end(p);
                 let ws = &mut self.ws;
@@ -111,6 +122,45 @@ impl CollisionPipeline {
             0 => ZoneMotion::Free,
             1 => ZoneMotion::Rigid(moves.remove(0).step),
             _ => ZoneMotion::Blended(moves),
+        }
+    }
+
+    /// Joins the free points of crossing `c` in the inner zones.
+    fn join_free_points(&mut self, c: &super::response::Contact) {
+        let ws = &mut self.ws;
+        let mut free = (0..4).filter(|&k| c.hit.weights[k] != 0.0).map(|k| c.nodes[k]);
+        let free_first = free.by_ref().find(|&i| ws.inverse_mass[i as usize] > 0.0);
+        if let Some(first) = free_first {
+            for i in free.filter(|&i| ws.inverse_mass[i as usize] > 0.0) {
+                ws.inner_zones.join(first, i);
+            }
+        }
+    }
+
+    /// Moves the free points of the zone `zone_members[members]` with the
+    /// rigid `moves` blended ([`blended_end`]), except that the points an
+    /// inner zone joins (crossings between free points the blend left)
+    /// move together with the rigid motion that best fits the blend over
+    /// them: two features that cross while their points move apart unevenly
+    /// cannot cross once they move rigidly. Over a step of `h` s.
+    fn move_blended(&mut self, members: std::ops::Range<usize>, moves: &[RigidMove], h: f64) {
+        let ws = &mut self.ws;
+        let mut inner: Vec<(u32, u32)> = ws.zone_members[members]
+            .iter()
+            .filter(|&&(_, i)| ws.inverse_mass[i as usize] > 0.0)
+            .map(|&(_, i)| (ws.inner_zones.find(i), i))
+            .collect();
+        inner.sort_unstable();
+        for group in inner.chunk_by(|a, b| a.0 == b.0) {
+            let blend = |i: u32| (ws.start[i as usize], blended_end(moves, &ws.start[i as usize]));
+            let fit = (group.len() > 1).then(|| rigid_fit(group.iter().map(|&(_, i)| blend(i))));
+            for &(_, i) in group {
+                let (from, to) = blend(i);
+                let i = i as usize;
+                ws.end[i] = fit.map_or(to, |fit| (fit * Point3::from(from)).coords);
+                ws.velocity[i] = (ws.end[i] - from) / h;
+                ws.moved[i] = true;
+            }
         }
     }
 
@@ -342,6 +392,66 @@ mod tests {
         let most = (0..1000).map(|k| (end((k + 1) as f64 * 1e-3) - end(k as f64 * 1e-3)).norm()).fold(0.0, f64::max);
         assert!(most < 1e-4, "{most}");
         assert_eq!(blended_end(&[], &Vector3::x()), Vector3::x());
+    }
+
+    /// A flat 3 × 3 cloth (1 cm apart, one pinned corner) loaded for a
+    /// step of `h`, every point in one zone.
+    fn one_zone(h: f64) -> CollisionPipeline {
+        use crate::mesh::generate;
+        use crate::sim::collision::obstacles::{ClothScale, Obstacles};
+        use crate::sim::collision::{ClothState, CollisionSettings, ParticleCollision};
+        let grid = generate::grid(0.02, 3);
+        let start = grid.positions.clone();
+        let (mut end, mut velocity) = (start.clone(), vec![Vector3::zeros(); start.len()]);
+        let mut particles = vec![ParticleCollision { thickness: 0.002, friction: 0.0, pinned: None }; start.len()];
+        particles[0].pinned = Some(Kinematic::Rigid(still(Vector3::zeros())));
+        let scale = ClothScale { longest_edge_m: 0.01, thinnest_m: 0.002 };
+        let obstacles = Obstacles::new(&[], &[], scale);
+        let mut pipeline = CollisionPipeline::new(
+            grid.triangles,
+            vec![0; 8],
+            vec![true],
+            particles,
+            obstacles,
+            CollisionSettings::default(),
+        )
+        .expect("a self-colliding cloth has a pipeline");
+        let mass = vec![1e-3; start.len()];
+        let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
+        pipeline.load(&cloth, StepWindow { t0: 0.0, t1: h });
+        pipeline.ws.zone_members = (0..start.len() as u32).map(|i| (0, i)).collect();
+        pipeline.ws.inner_zones.reset(start.len());
+        pipeline
+    }
+
+    #[test]
+    fn points_joined_by_a_crossing_move_rigidly_inside_a_blended_zone() {
+        let h = 0.01;
+        let mut pipeline = one_zone(h);
+        let start = pipeline.ws.start.clone();
+        // Two motions pulling the cloth's sides apart, 1 mm each way.
+        let moves = [
+            RigidMove { step: Isometry3::translation(0.0, 0.001, 0.0), starts: vec![Vector3::new(-0.02, 0.0, 0.0)] },
+            RigidMove { step: Isometry3::translation(0.0, -0.001, 0.0), starts: vec![Vector3::new(0.02, 0.0, 0.0)] },
+        ];
+        for (a, b) in [(3, 4), (4, 5), (4, 1)] {
+            pipeline.ws.inner_zones.join(a, b);
+        }
+        pipeline.move_blended(0..start.len(), &moves, h);
+        let ws = &pipeline.ws;
+        let joined = [1usize, 3, 4, 5];
+        for &a in &joined {
+            for &b in &joined {
+                let (before, after) = ((start[a] - start[b]).norm(), (ws.end[a] - ws.end[b]).norm());
+                assert!((before - after).abs() < 1e-12, "{a}-{b}: {before} → {after}");
+            }
+            assert!(ws.moved[a] && (ws.velocity[a] - (ws.end[a] - start[a]) / h).norm() < 1e-9);
+        }
+        assert_ne!(ws.end[3].y, ws.end[5].y, "the joined points turn with the blend");
+        for i in [2usize, 6, 7, 8] {
+            assert_eq!(ws.end[i], blended_end(&moves, &start[i]), "a point on its own follows the blend");
+        }
+        assert_eq!((ws.end[0], ws.moved[0]), (start[0], false), "the pinned corner is left to its pin");
     }
 
     #[test]
