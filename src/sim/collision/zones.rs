@@ -74,8 +74,8 @@ impl CollisionPipeline {
                     .filter_map(|&(_, i)| Some((i, self.kinematic(i)?)))
                     .collect();
                 let motion = self.zone_motion(&kinematic, round, window);
-                if let ZoneMotion::Blended(moves) = &motion {
-                    self.move_blended(start..end, moves, window.h());
+                if matches!(motion, ZoneMotion::Blended(_)) {
+                    self.move_blended(start..end, &motion, window.h());
                     start = end;
                     continue;
                 }
@@ -137,13 +137,13 @@ impl CollisionPipeline {
         }
     }
 
-    /// Moves the free points of the zone `zone_members[members]` with the
-    /// rigid `moves` blended ([`blended_end`]), except that the points an
+    /// Moves the free points of the zone `zone_members[members]` as the
+    /// blended `motion` takes them ([`blended_end`]), except that the points an
     /// inner zone joins (crossings between free points the blend left)
     /// move together with the rigid motion that best fits the blend over
     /// them: two features that cross while their points move apart unevenly
     /// cannot cross once they move rigidly. Over a step of `h` s.
-    fn move_blended(&mut self, members: std::ops::Range<usize>, moves: &[RigidMove], h: f64) {
+    fn move_blended(&mut self, members: std::ops::Range<usize>, motion: &ZoneMotion, h: f64) {
         let ws = &mut self.ws;
         let mut inner: Vec<(u32, u32)> = ws.zone_members[members]
             .iter()
@@ -152,7 +152,7 @@ impl CollisionPipeline {
             .collect();
         inner.sort_unstable();
         for group in inner.chunk_by(|a, b| a.0 == b.0) {
-            let blend = |i: u32| (ws.start[i as usize], blended_end(moves, &ws.start[i as usize]));
+            let blend = |i: u32| (ws.start[i as usize], motion.end(&ws.start[i as usize]));
             let fit = (group.len() > 1).then(|| rigid_fit(group.iter().map(|&(_, i)| blend(i))));
             for &(_, i) in group {
                 let (from, to) = blend(i);
@@ -430,14 +430,14 @@ mod tests {
         let mut pipeline = one_zone(h);
         let start = pipeline.ws.start.clone();
         // Two motions pulling the cloth's sides apart, 1 mm each way.
-        let moves = [
+        let motion = ZoneMotion::Blended(vec![
             RigidMove { step: Isometry3::translation(0.0, 0.001, 0.0), starts: vec![Vector3::new(-0.02, 0.0, 0.0)] },
             RigidMove { step: Isometry3::translation(0.0, -0.001, 0.0), starts: vec![Vector3::new(0.02, 0.0, 0.0)] },
-        ];
+        ]);
         for (a, b) in [(3, 4), (4, 5), (4, 1)] {
             pipeline.ws.inner_zones.join(a, b);
         }
-        pipeline.move_blended(0..start.len(), &moves, h);
+        pipeline.move_blended(0..start.len(), &motion, h);
         let ws = &pipeline.ws;
         let joined = [1usize, 3, 4, 5];
         for &a in &joined {
@@ -449,7 +449,7 @@ mod tests {
         }
         assert_ne!(ws.end[3].y, ws.end[5].y, "the joined points turn with the blend");
         for i in [2usize, 6, 7, 8] {
-            assert_eq!(ws.end[i], blended_end(&moves, &start[i]), "a point on its own follows the blend");
+            assert_eq!(ws.end[i], motion.end(&start[i]), "a point on its own follows the blend");
         }
         assert_eq!((ws.end[0], ws.moved[0]), (start[0], false), "the pinned corner is left to its pin");
     }
