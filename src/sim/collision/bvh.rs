@@ -61,14 +61,6 @@ impl Box3 {
             & (b.min.z <= a.max.z)
     }
 
-    /// How far apart the boxes lie along the axis that parts them most, m:
-    /// positive exactly when they share no point (see [`Box3::overlaps`]).
-    pub fn gap(&self, other: &Box3) -> f64 {
-        let below = other.min - self.max;
-        let above = self.min - other.max;
-        below.sup(&above).max()
-    }
-
     /// True when the box holds no point (as [`Box3::empty`]).
     pub fn is_empty(&self) -> bool {
         !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
@@ -196,19 +188,6 @@ mod tests {
         let mut hits = Vec::new();
         bvh.overlapping(&Box3 { min: Vector3::new(1.3, 0.5, 0.5), max: Vector3::new(1.4, 0.6, 0.6) }, &mut hits);
         assert_eq!(hits, vec![1, 2]);
-    }
-
-    #[test]
-    fn the_gap_is_positive_exactly_when_the_boxes_are_apart() {
-        assert_eq!(unit_at(0.0).gap(&unit_at(1.5)), 0.5);
-        assert_eq!(unit_at(1.5).gap(&unit_at(0.0)), 0.5, "either way round");
-        assert_eq!(unit_at(0.0).gap(&unit_at(1.0)), 0.0, "touching boxes overlap");
-        assert_eq!(unit_at(0.0).gap(&unit_at(0.5)), -0.5);
-        let above = Box3 { min: Vector3::new(0.2, 3.0, 0.0), max: Vector3::new(0.4, 4.0, 1.0) };
-        assert_eq!(unit_at(0.0).gap(&above), 2.0, "the axis that parts them most");
-        for (a, b) in [(unit_at(0.0), unit_at(1.0 + 1e-15)), (unit_at(0.0), unit_at(1.0)), (unit_at(0.0), above)] {
-            assert_eq!(a.gap(&b) > 0.0, !a.overlaps(&b));
-        }
     }
 
     #[test]

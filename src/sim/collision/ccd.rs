@@ -90,70 +90,26 @@ pub struct Hit {
     pub crossing: bool,
 }
 
-/// What a test of two features that move relative to each other by at most
-/// a reach over the step found.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Outcome {
-    /// They started farther apart than the thickness and the reach together,
-    /// by at least this much (m), so they cannot meet: nothing more was
-    /// computed.
-    Apart(f64),
-    /// They were tested: the contact, if any.
-    Tested(Option<Hit>),
-}
-
-impl Outcome {
-    /// The contact found, if any.
-    pub fn hit(self) -> Option<Hit> {
-        match self {
-            Outcome::Apart(_) => None,
-            Outcome::Tested(hit) => hit,
-        }
-    }
-
-    /// Features that started `distance` m apart, with `distance` beyond
-    /// `within`, are apart.
-    fn apart_by(distance: f64, within: f64) -> Option<Outcome> {
-        (distance > within).then_some(Outcome::Apart(distance - within))
-    }
-}
-
 /// Vertex `p` against triangle `(a, b, c)`: the first crossing within the
 /// step, else the end or start proximity closer than `thickness`.
 pub fn vertex_triangle(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64) -> Option<Hit> {
-    vertex_triangle_within(p, a, b, c, thickness, f64::INFINITY).hit()
+    vertex_triangle_within(p, a, b, c, thickness, f64::INFINITY)
 }
 
 /// [`vertex_triangle`] for features that move relative to each other by at
 /// most `reach` m over the step: farther apart than `thickness + reach` at
 /// the start, they cannot meet, and nothing more is computed.
-pub fn vertex_triangle_within(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64, reach: f64) -> Outcome {
+pub fn vertex_triangle_within(p: &Path, a: &Path, b: &Path, c: &Path, thickness: f64, reach: f64) -> Option<Hit> {
     let at = |t: f64| (p.at(t), a.at(t), b.at(t), c.at(t));
     let (p0, a0, b0, c0) = at(0.0);
-    let gap_squared = box_gap_squared(&[p0], &[a0, b0, c0]);
-    if apart(gap_squared, thickness + reach) {
-        return Outcome::Apart(gap_squared.sqrt() - (thickness + reach));
+    if apart(box_gap_squared(&[p0], &[a0, b0, c0]), thickness + reach) {
+        return None;
     }
     let start_gap = closest_direction_vt(&p0, &a0, &b0, &c0);
-    match Outcome::apart_by(start_gap.norm(), thickness + reach) {
-        Some(apart) => apart,
-        None => Outcome::Tested(vertex_triangle_near(p, a, b, c, thickness, start_gap)),
-    }
-}
-
-/// [`vertex_triangle`] of features whose start positions are `start_gap`
-/// apart (from the triangle to the vertex, m).
-fn vertex_triangle_near(
-    p: &Path,
-    a: &Path,
-    b: &Path,
-    c: &Path,
-    thickness: f64,
-    start_gap: Vector3<f64>,
-) -> Option<Hit> {
-    let at = |t: f64| (p.at(t), a.at(t), b.at(t), c.at(t));
-    let (p0, a0, b0, c0) = at(0.0);
     let start_distance = start_gap.norm();
+    if start_distance > thickness + reach {
+        return None;
+    }
     // The triangle's normal at the contact, on the side the vertex came from;
     // a vertex that started in the triangle's plane is pushed back the way it
     // came within the plane.
@@ -198,30 +154,23 @@ fn vertex_triangle_near(
 /// Edge `a b` against edge `c d`: the first crossing within the step, else the
 /// end or start proximity closer than `thickness`.
 pub fn edge_edge(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64) -> Option<Hit> {
-    edge_edge_within(a, b, c, d, thickness, f64::INFINITY).hit()
+    edge_edge_within(a, b, c, d, thickness, f64::INFINITY)
 }
 
 /// [`edge_edge`] for edges that move relative to each other by at most
 /// `reach` m over the step (see [`vertex_triangle_within`]).
-pub fn edge_edge_within(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64, reach: f64) -> Outcome {
-    let (a0, b0, c0, d0) = (a.start, b.start, c.start, d.start);
-    let gap_squared = box_gap_squared(&[a0, b0], &[c0, d0]);
-    if apart(gap_squared, thickness + reach) {
-        return Outcome::Apart(gap_squared.sqrt() - (thickness + reach));
+pub fn edge_edge_within(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64, reach: f64) -> Option<Hit> {
+    let at = |t: f64| (a.at(t), b.at(t), c.at(t), d.at(t));
+    let (a0, b0, c0, d0) = at(0.0);
+    if apart(box_gap_squared(&[a0, b0], &[c0, d0]), thickness + reach) {
+        return None;
     }
     let (p0, q0) = closest_points_ee(&a0, &b0, &c0, &d0);
-    match Outcome::apart_by((p0 - q0).norm(), thickness + reach) {
-        Some(apart) => apart,
-        None => Outcome::Tested(edge_edge_near(a, b, c, d, thickness, p0 - q0)),
+    let start_distance = (p0 - q0).norm();
+    if start_distance > thickness + reach {
+        return None;
     }
-}
-
-/// [`edge_edge`] of edges whose closest points at the start are `start_gap`
-/// apart (from the second edge to the first, m).
-fn edge_edge_near(a: &Path, b: &Path, c: &Path, d: &Path, thickness: f64, start_gap: Vector3<f64>) -> Option<Hit> {
-    let at = |t: f64| (a.at(t), b.at(t), c.at(t), d.at(t));
-    let start_distance = start_gap.norm();
-    let side0 = start_gap.try_normalize(0.0);
+    let side0 = (p0 - q0).try_normalize(0.0);
     let hit = |t: f64| {
         let (at_, bt, ct, dt) = at(t);
         let (s, u) = closest_between_segments(&at_, &bt, &ct, &dt);
@@ -420,31 +369,6 @@ mod tests {
     /// The unit triangle in the XZ plane.
     fn floor() -> [Path; 3] {
         [still([0.0, 0.0, 0.0]), still([1.0, 0.0, 0.0]), still([0.0, 0.0, 1.0])]
-    }
-
-    #[test]
-    fn features_out_of_reach_are_apart_by_what_they_have_to_spare() {
-        let [a, b, c] = floor();
-        // 0.3 above the floor's corner, reach 0.1: culled by the start boxes.
-        let above = still([0.0, 0.3, 0.0]);
-        match vertex_triangle_within(&above, &a, &b, &c, THICK, 0.1) {
-            Outcome::Apart(spare) => assert!((spare - (0.3 - 0.1 - THICK)).abs() < 1e-12),
-            tested => panic!("{tested:?}"),
-        }
-        // Beyond the hypotenuse, inside the boxes: culled by the distance.
-        let beside = still([0.8, 0.0, 0.8]);
-        let distance = 0.6 / 2f64.sqrt();
-        match vertex_triangle_within(&beside, &a, &b, &c, THICK, 0.1) {
-            Outcome::Apart(spare) => assert!((spare - (distance - 0.1 - THICK)).abs() < 1e-12),
-            tested => panic!("{tested:?}"),
-        }
-        // Within reach they are tested; an edge 0.3 above an edge is apart.
-        assert_eq!(vertex_triangle_within(&beside, &a, &b, &c, THICK, 0.5), Outcome::Tested(None));
-        let (e, f) = (still([0.0, 0.3, -1.0]), still([0.0, 0.3, 1.0]));
-        match edge_edge_within(&a, &b, &e, &f, THICK, 0.1) {
-            Outcome::Apart(spare) => assert!((spare - (0.3 - 0.1 - THICK)).abs() < 1e-12),
-            tested => panic!("{tested:?}"),
-        }
     }
 
     /// Brute force: between two of `samples` times, does the signed volume

@@ -9,8 +9,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::bvh::{Box3, SweptBvh};
-use super::ccd::{Hit, Outcome, Path, edge_edge_within, relative_reach, vertex_triangle_within};
-use super::certificates::{CertifiedPoints, drift_allowed, drift_allowed_by_gap};
+use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_within};
 use super::features::Ownership;
 use super::obstacles::Obstacles;
 use super::pair_sort::PairSorter;
@@ -253,14 +252,6 @@ impl CollisionPipeline {
         }
         self.refit(moved, speculated);
         let ws = &mut self.ws;
-        if cloth_pairs {
-            let (start, end) = (&ws.start[..n], &ws.end[..n]);
-            let points = CertifiedPoints { start, end, shift: ws.shift, growth: ws.growth };
-            match moved {
-                true => ws.certificates.follow_moved(points, &ws.moved[..n], &self.triangles, &ws.moved_list),
-                false => ws.certificates.begin_full(points, &self.triangles),
-            }
-        }
         report.refit += clock.elapsed();
 
         let clock = Instant::now();
@@ -356,37 +347,21 @@ impl CollisionPipeline {
         };
         // Only the step's first detection is counted.
         let counting = report.passes == 0 && detection == Detection::Proximity;
-        let certificates = &ws.certificates;
-        ws.jobs.par_chunks(JOBS_PER_CHUNK).zip(ws.chunks[..chunk_count].par_iter_mut()).for_each(|(jobs, chunk)| {
-            chunk.clear();
-            for job in jobs {
-                if let Job::Cloth(a, b) = *job {
-                    chunk.cloth_pairs += 1;
-                    if certificates.holds(a, b) {
-                        chunk.certified += 1;
-                        continue;
-                    }
+        ws.jobs.par_chunks(JOBS_PER_CHUNK).zip(ws.chunks[..chunk_count].par_iter_mut()).for_each(
+            |(jobs, (found, count))| {
+                found.clear();
+                *count = TestCount::default();
+                for job in jobs {
+                    narrow.run(*job, found, count);
                 }
-                if let (Some(gap), Job::Cloth(a, b)) = (narrow.run(*job, &mut chunk.found, &mut chunk.count), *job) {
-                    chunk.apart.push((a, b, gap));
-                }
-            }
-        });
+            },
+        );
         ws.contacts.clear();
-        for chunk in &ws.chunks[..chunk_count] {
-            ws.contacts.extend_from_slice(&chunk.found);
+        for (found, count) in &ws.chunks[..chunk_count] {
+            ws.contacts.extend_from_slice(found);
             if counting {
-                report.tests += chunk.count.run;
-                report.tests_without_ownership += chunk.count.without_ownership;
-                report.cloth_pairs += chunk.cloth_pairs;
-                report.certified += chunk.certified;
-            }
-            // A crossing detection culls at a smaller distance than the
-            // thickness: what it finds apart holds for itself only.
-            if detection == Detection::Proximity {
-                for &(a, b, allowed) in &chunk.apart {
-                    ws.certificates.record(a, b, allowed);
-                }
+                report.tests += count.run;
+                report.tests_without_ownership += count.without_ownership;
             }
         }
         report.narrow += clock.elapsed();
@@ -669,28 +644,7 @@ struct Narrow<'a> {
     detection: Detection,
 }
 
-/// What one parallel chunk of the narrow phase found.
-#[derive(Clone, Debug, Default)]
-pub(super) struct NarrowChunk {
-    found: Vec<Contact>,
-    count: TestCount,
-    /// Cloth pairs whose feature boxes were all apart, and by how much, m.
-    apart: Vec<(u32, u32, f64)>,
-    /// Cloth pairs in the chunk, and those skipped by their certificates.
-    cloth_pairs: u64,
-    certified: u64,
-}
-
-impl NarrowChunk {
-    fn clear(&mut self) {
-        self.found.clear();
-        self.count = TestCount::default();
-        self.apart.clear();
-        (self.cloth_pairs, self.certified) = (0, 0);
-    }
-}
-
-/// Elementary tests of a detection that passed the box and distance culls.
+/// Elementary tests of a detection that passed the box test.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct TestCount {
     /// Run, each feature tested from its owner only.
@@ -747,11 +701,8 @@ impl Narrow<'_> {
     }
 
     /// Vertex `p` (box `p_box`) against triangle `tri` (point indices, box
-    /// `tri_box`): culled by box and by the start distance, else tested by
-    /// continuous detection and counted as `sharing` tests without ownership. Returns how far the
-    /// points may drift before the test could run past its culls, m (see
-    /// [`super::certificates`]; infinite for a vertex of the triangle),
-    /// `None` if it did.
+    /// `tri_box`): culled by box and by the start distance, else tested and
+    /// counted as `sharing` tests without ownership.
     fn vertex_triangle(
         &self,
         (p, p_box): (u32, &Box3),
@@ -759,47 +710,30 @@ impl Narrow<'_> {
         sharing: u32,
         found: &mut Vec<Contact>,
         count: &mut TestCount,
-    ) -> Option<f64> {
-        if tri.contains(&p) {
-            return Some(f64::INFINITY);
-        }
-        let gap = p_box.gap(tri_box);
-        if gap > 0.0 {
-            return Some(drift_allowed_by_gap(gap));
+    ) {
+        if !p_box.overlaps(tri_box) || tri.contains(&p) {
+            return;
         }
         if self.kinematic(p) && tri.iter().all(|&v| self.kinematic(v)) {
-            return None;
+            return;
         }
+        count.add(sharing);
         let thickness = self.thickness(&[p, tri[0], tri[1], tri[2]]);
         let touching = self.detection.reach(thickness);
         let (point, [pa, pb, pc]) = (self.path(p), tri.map(|v| self.path(v)));
         let reach = relative_reach(&[point], &[pa, pb, pc]);
-        let outcome = vertex_triangle_within(&point, &pa, &pb, &pc, touching, reach);
-        if let Some(hit) = outcome.hit().filter(|h| self.wanted(h)) {
+        let hit = vertex_triangle_within(&point, &pa, &pb, &pc, touching, reach);
+        if let Some(hit) = hit.filter(|h| self.wanted(h)) {
             let nodes = [p, tri[0], tri[1], tri[2]];
             let body = nodes.iter().find_map(|&i| self.body(i));
             let friction = self.friction(&nodes, body);
             found.push(Contact { kind: ContactKind::VertexTriangle, nodes, hit, thickness, friction });
         }
-        Self::tally(outcome, sharing, count)
-    }
-
-    /// Counts a test that ran past its distance cull (as `sharing` tests
-    /// without ownership); for one culled, returns how far the points may
-    /// drift before it could run, m.
-    fn tally(outcome: Outcome, sharing: u32, count: &mut TestCount) -> Option<f64> {
-        match outcome {
-            Outcome::Apart(clearance) => Some(drift_allowed(clearance)),
-            Outcome::Tested(_) => {
-                count.add(sharing);
-                None
-            }
-        }
     }
 
     /// Edge `e1` (box `box1`) against edge `e2` (box `box2`): culled by box
     /// and distance, else tested and counted as `sharing` tests without
-    /// ownership. Returns what [`Self::vertex_triangle`] does.
+    /// ownership.
     fn edge_edge(
         &self,
         (e1, box1): ([u32; 2], &Box3),
@@ -807,28 +741,24 @@ impl Narrow<'_> {
         sharing: u32,
         found: &mut Vec<Contact>,
         count: &mut TestCount,
-    ) -> Option<f64> {
-        if e1.iter().any(|v| e2.contains(v)) {
-            return Some(f64::INFINITY);
-        }
-        let gap = box1.gap(box2);
-        if gap > 0.0 {
-            return Some(drift_allowed_by_gap(gap));
+    ) {
+        if !box1.overlaps(box2) || e1.iter().any(|v| e2.contains(v)) {
+            return;
         }
         let nodes = [e1[0], e1[1], e2[0], e2[1]];
         if nodes.iter().all(|&v| self.kinematic(v)) {
-            return None;
+            return;
         }
+        count.add(sharing);
         let thickness = self.thickness(&nodes);
         let touching = self.detection.reach(thickness);
         let [pa, pb, pc, pd] = nodes.map(|v| self.path(v));
-        let outcome = edge_edge_within(&pa, &pb, &pc, &pd, touching, relative_reach(&[pa, pb], &[pc, pd]));
-        if let Some(hit) = outcome.hit().filter(|h| self.wanted(h)) {
+        let hit = edge_edge_within(&pa, &pb, &pc, &pd, touching, relative_reach(&[pa, pb], &[pc, pd]));
+        if let Some(hit) = hit.filter(|h| self.wanted(h)) {
             let body = nodes.iter().find_map(|&i| self.body(i));
             let friction = self.friction(&nodes, body);
             found.push(Contact { kind: ContactKind::EdgeEdge, nodes, hit, thickness, friction });
         }
-        Self::tally(outcome, sharing, count)
     }
 
     /// Cloth triangle `t` as one side of a pair.
@@ -843,9 +773,7 @@ impl Narrow<'_> {
 
     /// Runs one job, appending contacts and counting the feature pairs that
     /// pass the box test, with representative triangles and without.
-    /// Returns, for a pair of cloth triangles whose every feature test was
-    /// culled, how far their points may drift before one would not be, m.
-    fn run(&self, job: Job, found: &mut Vec<Contact>, count: &mut TestCount) -> Option<f64> {
+    fn run(&self, job: Job, found: &mut Vec<Contact>, count: &mut TestCount) {
         let cloth = |t: u32| self.pipeline_triangles[t as usize];
         let offset = self.cloth_count as u32;
         match job {
@@ -859,28 +787,24 @@ impl Narrow<'_> {
                 } else {
                     (self.cloth_side(t2), self.ownership)
                 };
-                // The least gap of the feature boxes, while none met.
-                let mut apart = Some(f64::INFINITY);
-                let mut least = |gap: Option<f64>| apart = apart.zip(gap).map(|(a, g)| a.min(g));
                 for k in self.ownership.vertices(t1) {
                     let corner = (first.points[k], &first.boxes.corners[k]);
                     let sharing = self.ownership.vertex_sharing(t1, k);
-                    least(self.vertex_triangle(corner, (second.points, second.whole), sharing, found, count));
+                    self.vertex_triangle(corner, (second.points, second.whole), sharing, found, count);
                 }
                 for k in owner2.vertices(t2) {
                     let corner = (second.points[k], &second.boxes.corners[k]);
                     let sharing = owner2.vertex_sharing(t2, k);
-                    least(self.vertex_triangle(corner, (first.points, first.whole), sharing, found, count));
+                    self.vertex_triangle(corner, (first.points, first.whole), sharing, found, count);
                 }
                 for k1 in self.ownership.edges(t1) {
                     let e1 = (edge(first.points, k1), &first.boxes.edges[k1]);
                     for k2 in owner2.edges(t2) {
                         let e2 = (edge(second.points, k2), &second.boxes.edges[k2]);
                         let sharing = self.ownership.edge_sharing(t1, k1) * owner2.edge_sharing(t2, k2);
-                        least(self.edge_edge(e1, e2, sharing, found, count));
+                        self.edge_edge(e1, e2, sharing, found, count);
                     }
                 }
-                return apart;
             }
             Job::Vertex(t, v) => {
                 let (v, tri_box) = (v + offset, &self.triangle_box[t as usize]);
@@ -912,7 +836,6 @@ impl Narrow<'_> {
                 }
             }
         }
-        None
     }
 }
 

@@ -34,7 +34,6 @@
 
 pub mod bvh;
 pub mod ccd;
-mod certificates;
 mod detect;
 pub mod features;
 pub mod geometry;
@@ -202,17 +201,12 @@ pub struct CollisionReport {
     /// Candidate pairs of the last detection.
     pub pairs: u32,
     /// Elementary feature pairs (vertex-triangle, edge-edge) of the step's
-    /// first detection that passed the box and distance culls and went on to
-    /// continuous detection.
+    /// first detection that passed the box test and went on to distance
+    /// culling and continuous detection.
     pub tests: u64,
     /// The same count if every vertex and edge of both triangles were tested
     /// (no representative triangles).
     pub tests_without_ownership: u64,
-    /// Cloth triangle pairs of the step's first detection (self and between
-    /// garments), and those of them skipped as certified apart (see
-    /// [`certificates`]).
-    pub cloth_pairs: u64,
-    pub certified: u64,
     /// Contacts found in the first detection.
     pub contacts: u32,
     /// Detect → respond passes run.
@@ -307,9 +301,7 @@ struct Workspace {
     /// [`CollisionPipeline::resting_pairs`].
     resting_keys: Vec<[u32; 5]>,
     jobs: Vec<Job>,
-    chunks: Vec<detect::NarrowChunk>,
-    /// Cloth triangle pairs proven apart, which the narrow phase skips.
-    certificates: certificates::Certificates,
+    chunks: Vec<(Vec<Contact>, detect::TestCount)>,
     contacts: Vec<Contact>,
     /// Contacts of the last detection whose points have not moved since.
     kept: Vec<Contact>,
@@ -412,9 +404,6 @@ impl CollisionPipeline {
     /// Sets particle `i`'s thickness (m) and friction coefficient.
     pub fn set_surface(&mut self, i: usize, thickness: f64, friction: f64) {
         let particle = &mut self.particles[i];
-        if particle.thickness != thickness {
-            self.ws.certificates.clear();
-        }
         (particle.thickness, particle.friction) = (thickness, friction);
     }
 
@@ -846,52 +835,6 @@ mod tests {
         assert_eq!(checked.passes, 1, "{checked:?}");
         assert_eq!(unchecked.passes, CollisionSettings::default().passes, "{unchecked:?}");
         assert_eq!(checked.unresolved, 0, "{checked:?}");
-    }
-
-    /// The second detection of [`crumpled`], moved on by a common motion plus
-    /// up to `wobbling` m of each point's own (starts and ends alike), by a
-    /// pipeline that kept its certificates from the first: its contacts, in
-    /// order, and its report.
-    fn second_detection(pipeline: &mut CollisionPipeline, n: usize, wobbling: f64) -> (Vec<Contact>, CollisionReport) {
-        let carried = Vector3::new(0.05, -0.02, 0.01);
-        let moved = |x: &[Vector3<f64>], seed: usize| -> Vec<Vector3<f64>> {
-            let own = |i: usize| Vector3::from_fn(|k, _| wobbling * wobble(i + seed, k));
-            x.iter().enumerate().map(|(i, p)| p + carried + own(i)).collect()
-        };
-        let (start, mut end) = (moved(&pipeline.ws.start[..n], 0), moved(&pipeline.ws.end[..n], 7));
-        let mut velocity = vec![Vector3::zeros(); n];
-        let mass = vec![1e-3; n];
-        let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
-        pipeline.load(&cloth, StepWindow { t0: 0.01, t1: 0.02 });
-        let mut report = CollisionReport::default();
-        pipeline.detect(Detection::Proximity, Scope::All, &mut report);
-        (pipeline.ws.contacts.clone(), report)
-    }
-
-    /// A pair skipped as certified apart would have found nothing: whatever
-    /// the points did since the first detection, the second finds the
-    /// contacts, in the same order, that a pipeline without certificates
-    /// finds; and the less they moved apart from their common motion, the
-    /// more pairs it skips.
-    #[test]
-    fn pairs_certified_apart_are_skipped_and_the_contacts_stay_the_same() {
-        let mut skipped = Vec::new();
-        for wobbling in [0.0, 1e-4, 1e-3, 1e-2] {
-            let (mut kept, n) = crumpled(true);
-            kept.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
-            let (contacts, report) = second_detection(&mut kept, n, wobbling);
-            let (mut fresh, _) = crumpled(true);
-            let (fresh_contacts, fresh_report) = second_detection(&mut fresh, n, wobbling);
-            assert_eq!(fresh_report.certified, 0, "a new pipeline has no certificates");
-            assert!(!contacts.is_empty());
-            assert_eq!(contacts, fresh_contacts, "moved by up to {wobbling} m");
-            assert_eq!(report.cloth_pairs, fresh_report.cloth_pairs);
-            skipped.push((report.certified, report.cloth_pairs));
-        }
-        let (common, pairs) = skipped[0];
-        assert!(2 * common > pairs, "most pairs skipped under a common motion: {skipped:?}");
-        assert!(skipped.windows(2).all(|w| w[0].0 >= w[1].0), "{skipped:?}");
-        assert!(skipped[3].0 < common / 2, "{skipped:?}");
     }
 
     /// A cloth folded onto itself and shaken, with no obstacle, its whole
