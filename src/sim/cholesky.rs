@@ -107,15 +107,6 @@ pub enum CholeskyError {
     },
 }
 
-/// Where each scalar entry of the lower triangle comes from: block slot `slot`
-/// of the block pattern (row `j`, column `i ≥ j`), entry `(c, r)` of that block
-/// (the transpose of block `(i, j)`), stored as `3 c + r`.
-#[derive(Clone, Copy, Debug)]
-struct LowerEntry {
-    slot: u32,
-    component: u8,
-}
-
 /// The scalar lower triangle of a 3×3-block symmetric matrix in compressed
 /// columns, with the map from its entries back to the blocks, in an order of
 /// its own: scalar unknown `k` of the triangle is unknown `system[k]`
@@ -125,7 +116,12 @@ struct LowerTriangle {
     dimension: usize,
     column_start: Vec<u32>,
     row_index: Vec<u32>,
-    entries: Vec<LowerEntry>,
+    /// Where each entry comes from: entry `(c, r)` of block slot `s` of the
+    /// block pattern (row `j`, column `i ≥ j`: the transpose of block
+    /// `(i, j)`), as its place `9 s + 3 r + c` among the blocks' values read
+    /// as one array of column-major 3×3 blocks. The factor reads every entry
+    /// through this one index.
+    source: Vec<u32>,
     system: Vec<u32>,
 }
 
@@ -135,7 +131,7 @@ impl LowerTriangle {
     fn new(pattern: &BlockPattern, kept: &[bool]) -> Self {
         let n = pattern.rows();
         let mut column_start = Vec::with_capacity(3 * n + 1);
-        let (mut row_index, mut entries) = (Vec::new(), Vec::new());
+        let (mut row_index, mut source) = (Vec::new(), Vec::new());
         column_start.push(0);
         for j in 0..n {
             for c in 0..3 {
@@ -144,14 +140,14 @@ impl LowerTriangle {
                     let i = pattern.column(s);
                     for r in (0..3).filter(|&r| i > j || r >= c) {
                         row_index.push((3 * i + r) as u32);
-                        entries.push(LowerEntry { slot: s as u32, component: (3 * c + r) as u8 });
+                        source.push((9 * s + 3 * r + c) as u32);
                     }
                 }
                 column_start.push(row_index.len() as u32);
             }
         }
         let system = (0..3 * n as u32).collect();
-        LowerTriangle { dimension: 3 * n, column_start, row_index, entries, system }
+        LowerTriangle { dimension: 3 * n, column_start, row_index, source, system }
     }
 
     /// The same matrix with its unknowns renumbered: unknown `k` of the result
@@ -159,10 +155,10 @@ impl LowerTriangle {
     /// factor is then built without a permutation of its own, which it would
     /// otherwise apply to every matrix it factors.
     fn reordered(&self, order: &[u32], position: &[u32]) -> Self {
-        let mut moved = Vec::with_capacity(self.entries.len());
+        let mut moved = Vec::with_capacity(self.source.len());
         for column in 0..self.dimension {
             let range = self.column_start[column] as usize..self.column_start[column + 1] as usize;
-            for (&row, &entry) in self.row_index[range.clone()].iter().zip(&self.entries[range]) {
+            for (&row, &entry) in self.row_index[range.clone()].iter().zip(&self.source[range]) {
                 // The matrix is symmetric: an entry that lands above the
                 // diagonal is stored as its mirror, which has the same value.
                 let (a, b) = (position[row as usize], position[column]);
@@ -181,7 +177,7 @@ impl LowerTriangle {
             dimension: self.dimension,
             column_start,
             row_index: moved.iter().map(|&(_, row, _)| row).collect(),
-            entries: moved.iter().map(|&(_, _, entry)| entry).collect(),
+            source: moved.iter().map(|&(_, _, entry)| entry).collect(),
             system: order.iter().map(|&k| self.system[k as usize]).collect(),
         }
     }
@@ -222,11 +218,9 @@ impl LowerTriangle {
     }
 
     /// Scalar entry `e` (in the triangle's order) of the blocks `filtered`
-    /// (one per stored slot), as `T`.
-    fn entry<T: Precision>(&self, filtered: &[Matrix3<f64>], e: usize) -> T {
-        let entry = self.entries[e];
-        let (c, r) = (entry.component as usize / 3, entry.component as usize % 3);
-        T::from_f64(filtered[entry.slot as usize][(c, r)])
+    /// (one per stored slot) read as one array of their values, as `T`.
+    fn entry<T: Precision>(&self, filtered: &[f64], e: usize) -> T {
+        T::from_f64(filtered[self.source[e] as usize])
     }
 }
 
@@ -421,7 +415,8 @@ impl<T: Precision> Numeric<T> {
         lower: &LowerTriangle,
         filtered: &[Matrix3<f64>],
     ) -> Result<(), CholeskyError> {
-        self.factor.factor(tree, |e| lower.entry(filtered, e)).map_err(|_| CholeskyError::NotPositiveDefinite)
+        let values: &[f64] = bytemuck::cast_slice(filtered);
+        self.factor.factor(tree, |e| lower.entry(values, e)).map_err(|_| CholeskyError::NotPositiveDefinite)
     }
 
     /// `z = M⁻¹ r` with the factor.
