@@ -15,6 +15,7 @@ use super::obstacles::Obstacles;
 use super::pair_sort::PairSorter;
 use super::partners::Partners;
 use super::response::{Contact, ContactKind};
+use super::slabs::DiagonalSlabs;
 use super::speculate::{MARGIN_IN_THICKNESSES, leaf_margin};
 use super::{CollisionPipeline, CollisionReport, ParticleCollision, Workspace, speculate};
 use crate::sim::contact::StepWindow;
@@ -181,17 +182,24 @@ impl CollisionPipeline {
         let (start, end, shift, growth) = (&ws.start, &ws.end, ws.shift, ws.growth);
         let point_box = |i: usize| Box3::empty().with(&start[i]).with(&(end[i] - shift)).grown(growth);
         let point_state = |i: usize| PointState::of(i, start, end, &self.particles);
+        let point_slabs = |i: usize| DiagonalSlabs::of_path(&start[i], &(end[i] - shift), growth);
         let bvh = match &mut self.bvh {
             Some(bvh) if only_moved && ws.triangle_box.len() == self.triangles.len() => bvh,
             _ => {
-                let cloth_boxes = ws.node_box[..self.particles.len()].par_iter_mut().with_min_len(BOXES_PER_TASK);
-                cloth_boxes.enumerate().for_each(|(i, b)| *b = point_box(i));
+                let n = self.particles.len();
+                ws.point_slabs.resize(n, DiagonalSlabs::empty());
+                let cloth_boxes = ws.node_box[..n].par_iter_mut().zip(ws.point_slabs.par_iter_mut());
+                cloth_boxes.with_min_len(BOXES_PER_TASK).enumerate().for_each(|(i, (b, s))| {
+                    *b = point_box(i);
+                    *s = point_slabs(i);
+                });
                 ws.point.clear();
                 ws.point.par_extend((0..start.len()).into_par_iter().with_min_len(BOXES_PER_TASK).map(point_state));
-                let node_box = &ws.node_box;
+                let (node_box, point_slabs) = (&ws.node_box, &ws.point_slabs);
                 let triangles = self.triangles.par_iter().with_min_len(BOXES_PER_TASK);
-                ws.feature_box.clear();
-                ws.feature_box.par_extend(triangles.map(|t| FeatureBoxes::of(*t, node_box)));
+                let bounds =
+                    |t: &[u32; 3]| (FeatureBoxes::of(*t, node_box), DiagonalSlabs::of_triangle(*t, point_slabs));
+                triangles.map(bounds).unzip_into_vecs(&mut ws.feature_box, &mut ws.triangle_slabs);
                 ws.triangle_box.clear();
                 let features = ws.feature_box.par_iter().with_min_len(BOXES_PER_TASK);
                 ws.triangle_box.par_extend(features.map(FeatureBoxes::whole));
@@ -210,9 +218,11 @@ impl CollisionPipeline {
         for i in (0..self.particles.len()).filter(|&i| ws.moved[i]) {
             ws.node_box[i] = point_box(i);
             ws.point[i] = point_state(i);
+            ws.point_slabs[i] = point_slabs(i);
         }
         for &t in &ws.moved_list {
             let t = t as usize;
+            ws.triangle_slabs[t] = DiagonalSlabs::of_triangle(self.triangles[t], &ws.point_slabs);
             ws.feature_box[t] = FeatureBoxes::of(self.triangles[t], &ws.node_box);
             ws.triangle_box[t] = ws.feature_box[t].whole();
         }
@@ -339,6 +349,8 @@ impl CollisionPipeline {
             point: &ws.point,
             node_box: &ws.node_box,
             triangle_box: &ws.triangle_box,
+            point_slabs: &ws.point_slabs,
+            triangle_slabs: &ws.triangle_slabs,
             obstacle_box: &ws.obstacle_box,
             feature_box: &ws.feature_box,
             obstacle_feature_box: &ws.obstacle_feature_box,
@@ -634,6 +646,10 @@ struct Narrow<'a> {
     point: &'a [PointState],
     node_box: &'a [Box3],
     triangle_box: &'a [Box3],
+    /// Per cloth point, its face-diagonal slabs over the step.
+    point_slabs: &'a [DiagonalSlabs],
+    /// Per cloth triangle, its face-diagonal slabs over the step.
+    triangle_slabs: &'a [DiagonalSlabs],
     /// Per obstacle triangle, its box over the step.
     obstacle_box: &'a [Box3],
     /// Per cloth triangle, the boxes of its edges and corners.
@@ -701,17 +717,19 @@ impl Narrow<'_> {
     }
 
     /// Vertex `p` (box `p_box`) against triangle `tri` (point indices, box
-    /// `tri_box`): culled by box and by the start distance, else tested and
-    /// counted as `sharing` tests without ownership.
+    /// `tri_box`): culled by box, by `slabs_meet` (false when their slabs are
+    /// apart) and by the start distance, else tested and counted as
+    /// `sharing` tests without ownership.
     fn vertex_triangle(
         &self,
         (p, p_box): (u32, &Box3),
         (tri, tri_box): ([u32; 3], &Box3),
+        slabs_meet: impl FnOnce() -> bool,
         sharing: u32,
         found: &mut Vec<Contact>,
         count: &mut TestCount,
     ) {
-        if !p_box.overlaps(tri_box) || tri.contains(&p) {
+        if !p_box.overlaps(tri_box) || tri.contains(&p) || !slabs_meet() {
             return;
         }
         if self.kinematic(p) && tri.iter().all(|&v| self.kinematic(v)) {
@@ -731,18 +749,19 @@ impl Narrow<'_> {
         }
     }
 
-    /// Edge `e1` (box `box1`) against edge `e2` (box `box2`): culled by box
-    /// and distance, else tested and counted as `sharing` tests without
-    /// ownership.
+    /// Edge `e1` (box `box1`) against edge `e2` (box `box2`): culled by box,
+    /// by `slabs_meet` and by distance, else tested and counted as `sharing`
+    /// tests without ownership.
     fn edge_edge(
         &self,
         (e1, box1): ([u32; 2], &Box3),
         (e2, box2): ([u32; 2], &Box3),
+        slabs_meet: impl FnOnce() -> bool,
         sharing: u32,
         found: &mut Vec<Contact>,
         count: &mut TestCount,
     ) {
-        if !box1.overlaps(box2) || e1.iter().any(|v| e2.contains(v)) {
+        if !box1.overlaps(box2) || e1.iter().any(|v| e2.contains(v)) || !slabs_meet() {
             return;
         }
         let nodes = [e1[0], e1[1], e2[0], e2[1]];
@@ -777,8 +796,21 @@ impl Narrow<'_> {
         let cloth = |t: u32| self.pipeline_triangles[t as usize];
         let offset = self.cloth_count as u32;
         match job {
+            Job::Cloth(t1, t2) if !self.triangle_slabs[t1 as usize].overlaps(&self.triangle_slabs[t2 as usize]) => {}
             Job::Cloth(t1, t2) | Job::Mesh(t1, t2) => {
+                let cloth_pair = matches!(job, Job::Cloth(..));
                 let (t1, t2) = (t1 as usize, t2 as usize);
+                // Cloth features are told apart by their slabs too.
+                let vertex_slabs = |p: u32, t: usize| {
+                    move || !cloth_pair || self.point_slabs[p as usize].overlaps(&self.triangle_slabs[t])
+                };
+                let edge_slabs = |[a, b]: [u32; 2], [c, d]: [u32; 2]| {
+                    move || {
+                        let slabs = self.point_slabs;
+                        let first = slabs[a as usize].union(&slabs[b as usize]);
+                        !cloth_pair || first.overlaps(&slabs[c as usize].union(&slabs[d as usize]))
+                    }
+                };
                 let first = self.cloth_side(t1);
                 let (second, owner2) = if matches!(job, Job::Mesh(..)) {
                     let points = self.obstacles.triangles[t2].map(|v| v + offset);
@@ -790,25 +822,27 @@ impl Narrow<'_> {
                 for k in self.ownership.vertices(t1) {
                     let corner = (first.points[k], &first.boxes.corners[k]);
                     let sharing = self.ownership.vertex_sharing(t1, k);
-                    self.vertex_triangle(corner, (second.points, second.whole), sharing, found, count);
+                    let slabs = vertex_slabs(first.points[k], t2);
+                    self.vertex_triangle(corner, (second.points, second.whole), slabs, sharing, found, count);
                 }
                 for k in owner2.vertices(t2) {
                     let corner = (second.points[k], &second.boxes.corners[k]);
                     let sharing = owner2.vertex_sharing(t2, k);
-                    self.vertex_triangle(corner, (first.points, first.whole), sharing, found, count);
+                    let slabs = vertex_slabs(second.points[k], t1);
+                    self.vertex_triangle(corner, (first.points, first.whole), slabs, sharing, found, count);
                 }
                 for k1 in self.ownership.edges(t1) {
                     let e1 = (edge(first.points, k1), &first.boxes.edges[k1]);
                     for k2 in owner2.edges(t2) {
                         let e2 = (edge(second.points, k2), &second.boxes.edges[k2]);
                         let sharing = self.ownership.edge_sharing(t1, k1) * owner2.edge_sharing(t2, k2);
-                        self.edge_edge(e1, e2, sharing, found, count);
+                        self.edge_edge(e1, e2, edge_slabs(e1.0, e2.0), sharing, found, count);
                     }
                 }
             }
             Job::Vertex(t, v) => {
                 let (v, tri_box) = (v + offset, &self.triangle_box[t as usize]);
-                self.vertex_triangle((v, &self.node_box[v as usize]), (cloth(t), tri_box), 1, found, count);
+                self.vertex_triangle((v, &self.node_box[v as usize]), (cloth(t), tri_box), || true, 1, found, count);
             }
             Job::Again(k) => {
                 let contact = &self.kept[k as usize];
@@ -818,11 +852,11 @@ impl Narrow<'_> {
                         let tri_box = self.node_box[b as usize].union(&self.node_box[c as usize]);
                         let tri_box = tri_box.union(&self.node_box[d as usize]);
                         let vertex = (a, &self.node_box[a as usize]);
-                        self.vertex_triangle(vertex, ([b, c, d], &tri_box), 1, found, count);
+                        self.vertex_triangle(vertex, ([b, c, d], &tri_box), || true, 1, found, count);
                     }
                     ContactKind::EdgeEdge => {
                         let (box1, box2) = (self.edge_box_of([a, b]), self.edge_box_of([c, d]));
-                        self.edge_edge(([a, b], &box1), ([c, d], &box2), 1, found, count);
+                        self.edge_edge(([a, b], &box1), ([c, d], &box2), || true, 1, found, count);
                     }
                 }
             }
@@ -832,7 +866,8 @@ impl Narrow<'_> {
                 let edges = &self.feature_box[t as usize].edges;
                 for k in self.ownership.edges(t as usize) {
                     let sharing = self.ownership.edge_sharing(t as usize, k);
-                    self.edge_edge((edge(cloth(t), k), &edges[k]), (obstacle, &obstacle_box), sharing, found, count);
+                    let e = (edge(cloth(t), k), &edges[k]);
+                    self.edge_edge(e, (obstacle, &obstacle_box), || true, sharing, found, count);
                 }
             }
         }

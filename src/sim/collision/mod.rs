@@ -42,6 +42,7 @@ mod pair_sort;
 mod partners;
 pub mod response;
 pub mod resting;
+mod slabs;
 mod speculate;
 mod zones;
 
@@ -281,6 +282,10 @@ struct Workspace {
     /// Per point: what the narrow phase reads of it, packed.
     point: Vec<detect::PointState>,
     triangle_box: Vec<Box3>,
+    /// Per cloth point: its face-diagonal slabs over the step in that frame.
+    point_slabs: Vec<slabs::DiagonalSlabs>,
+    /// Per cloth triangle: its face-diagonal slabs over the step.
+    triangle_slabs: Vec<slabs::DiagonalSlabs>,
     /// Per cloth triangle: the boxes of its edges and corners.
     feature_box: Vec<detect::FeatureBoxes>,
     /// Per obstacle triangle: its box over the step (empty while parked).
@@ -733,6 +738,8 @@ mod tests {
             assert_eq!(pipeline.ws.node_box, full.ws.node_box);
             assert_eq!(pipeline.ws.feature_box, full.ws.feature_box);
             assert_eq!(pipeline.ws.triangle_box, full.ws.triangle_box);
+            assert_eq!(pipeline.ws.point_slabs, full.ws.point_slabs);
+            assert_eq!(pipeline.ws.triangle_slabs, full.ws.triangle_slabs);
             let (again, full) = (contact_set(&pipeline), contact_set(&full));
             assert!(!full.is_empty());
             let only_again: Vec<_> = again.difference(&full).collect();
