@@ -729,7 +729,7 @@ impl Narrow<'_> {
         found: &mut Vec<Contact>,
         count: &mut TestCount,
     ) {
-        if !p_box.overlaps(tri_box) || tri.contains(&p) || !slabs_meet() {
+        if tri.contains(&p) || !p_box.overlaps(tri_box) || !slabs_meet() {
             return;
         }
         if self.kinematic(p) && tri.iter().all(|&v| self.kinematic(v)) {
@@ -761,7 +761,7 @@ impl Narrow<'_> {
         found: &mut Vec<Contact>,
         count: &mut TestCount,
     ) {
-        if !box1.overlaps(box2) || e1.iter().any(|v| e2.contains(v)) || !slabs_meet() {
+        if e1.iter().any(|v| e2.contains(v)) || !box1.overlaps(box2) || !slabs_meet() {
             return;
         }
         let nodes = [e1[0], e1[1], e2[0], e2[1]];
