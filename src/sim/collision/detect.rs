@@ -138,7 +138,10 @@ impl CollisionPipeline {
         // all of them again.
         ws.triangle_box.clear();
         let (paths, growth) = (ws.obstacle_start.iter().zip(&ws.obstacle_end), ws.growth);
-        ws.node_box.extend(paths.map(|(a, b)| Box3::empty().with(a).with(&(b - shift)).grown(growth)));
+        ws.node_box.extend(paths.clone().map(|(a, b)| Box3::empty().with(a).with(&(b - shift)).grown(growth)));
+        ws.point_slabs.clear();
+        ws.point_slabs.resize(n, DiagonalSlabs::empty());
+        ws.point_slabs.extend(paths.map(|(a, b)| DiagonalSlabs::of_path(a, &(b - shift), growth)));
         let obstacle_nodes = &ws.node_box[n..];
         let triangles = &self.obstacles.triangles;
         ws.obstacle_box.clear();
@@ -150,10 +153,13 @@ impl CollisionPipeline {
         }
         let bvh = self.obstacle_bvh.get_or_insert_with(|| SweptBvh::new(&ws.obstacle_box));
         ws.obstacle_feature_box.resize(triangles.len(), FeatureBoxes::empty());
+        ws.obstacle_slabs.resize(triangles.len(), DiagonalSlabs::empty());
+        let obstacle_points = &ws.point_slabs[n..];
         ws.fresh_obstacles.clear();
         for (t, (tri, whole)) in triangles.iter().zip(&mut ws.obstacle_box).enumerate() {
             if region.is_none_or(|region| whole.overlaps(&region)) {
                 ws.obstacle_feature_box[t] = FeatureBoxes::of(*tri, obstacle_nodes);
+                ws.obstacle_slabs[t] = DiagonalSlabs::of_triangle(*tri, obstacle_points);
                 ws.fresh_obstacles.push(t as u32);
             } else {
                 *whole = Box3::empty();
@@ -187,8 +193,7 @@ impl CollisionPipeline {
             Some(bvh) if only_moved && ws.triangle_box.len() == self.triangles.len() => bvh,
             _ => {
                 let n = self.particles.len();
-                ws.point_slabs.resize(n, DiagonalSlabs::empty());
-                let cloth_boxes = ws.node_box[..n].par_iter_mut().zip(ws.point_slabs.par_iter_mut());
+                let cloth_boxes = ws.node_box[..n].par_iter_mut().zip(ws.point_slabs[..n].par_iter_mut());
                 cloth_boxes.with_min_len(BOXES_PER_TASK).enumerate().for_each(|(i, (b, s))| {
                     *b = point_box(i);
                     *s = point_slabs(i);
@@ -354,6 +359,7 @@ impl CollisionPipeline {
             obstacle_box: &ws.obstacle_box,
             feature_box: &ws.feature_box,
             obstacle_feature_box: &ws.obstacle_feature_box,
+            obstacle_slabs: &ws.obstacle_slabs,
             kept: &ws.kept,
             detection,
         };
@@ -468,12 +474,14 @@ fn cover_cloth(
     let region = region.union(&cloth).grown(OBSTACLE_REGION_MARGIN);
     ws.obstacle_region = Some(region);
     let obstacle_nodes = &ws.node_box[particles.len()..];
+    let obstacle_points = &ws.point_slabs[particles.len()..];
     ws.fresh_obstacles.clear();
     for (t, tri) in obstacles.triangles.iter().enumerate() {
         let whole = triangle_box(*tri, obstacle_nodes);
         if ws.obstacle_box[t].is_empty() && whole.overlaps(&region) {
             ws.obstacle_box[t] = whole;
             ws.obstacle_feature_box[t] = FeatureBoxes::of(*tri, obstacle_nodes);
+            ws.obstacle_slabs[t] = DiagonalSlabs::of_triangle(*tri, obstacle_points);
             ws.fresh_obstacles.push(t as u32);
         }
     }
@@ -628,6 +636,21 @@ struct Side<'a> {
     points: [u32; 3],
     whole: &'a Box3,
     boxes: &'a FeatureBoxes,
+    slabs: &'a DiagonalSlabs,
+}
+
+/// Whether slabs `a` and `b` overlap, asked only when called.
+fn slabs_meet<'a>(a: &'a DiagonalSlabs, b: &'a DiagonalSlabs) -> impl FnOnce() -> bool + 'a {
+    move || a.overlaps(b)
+}
+
+/// Whether the slabs of edges `e1` and `e2` (points with slabs
+/// `point_slabs`) overlap, asked only when called.
+fn edge_slabs_meet(point_slabs: &[DiagonalSlabs], [a, b]: [u32; 2], [c, d]: [u32; 2]) -> impl FnOnce() -> bool + '_ {
+    move || {
+        let first = point_slabs[a as usize].union(&point_slabs[b as usize]);
+        first.overlaps(&point_slabs[c as usize].union(&point_slabs[d as usize]))
+    }
 }
 
 /// The points of edge `k → k + 1` of triangle `tri`.
@@ -646,7 +669,7 @@ struct Narrow<'a> {
     point: &'a [PointState],
     node_box: &'a [Box3],
     triangle_box: &'a [Box3],
-    /// Per cloth point, its face-diagonal slabs over the step.
+    /// Per point (cloth, then obstacles), its face-diagonal slabs over the step.
     point_slabs: &'a [DiagonalSlabs],
     /// Per cloth triangle, its face-diagonal slabs over the step.
     triangle_slabs: &'a [DiagonalSlabs],
@@ -656,6 +679,8 @@ struct Narrow<'a> {
     feature_box: &'a [FeatureBoxes],
     /// Per obstacle triangle, the boxes of its edges and corners.
     obstacle_feature_box: &'a [FeatureBoxes],
+    /// Per obstacle triangle, its face-diagonal slabs over the step.
+    obstacle_slabs: &'a [DiagonalSlabs],
     kept: &'a [Contact],
     detection: Detection,
 }
@@ -782,7 +807,8 @@ impl Narrow<'_> {
 
     /// Cloth triangle `t` as one side of a pair.
     fn cloth_side(&self, t: usize) -> Side<'_> {
-        Side { points: self.pipeline_triangles[t], whole: &self.triangle_box[t], boxes: &self.feature_box[t] }
+        let (points, whole, boxes) = (self.pipeline_triangles[t], &self.triangle_box[t], &self.feature_box[t]);
+        Side { points, whole, boxes, slabs: &self.triangle_slabs[t] }
     }
 
     /// The box of the edge between points `e`.
@@ -796,39 +822,32 @@ impl Narrow<'_> {
         let cloth = |t: u32| self.pipeline_triangles[t as usize];
         let offset = self.cloth_count as u32;
         match job {
-            Job::Cloth(t1, t2) if !self.triangle_slabs[t1 as usize].overlaps(&self.triangle_slabs[t2 as usize]) => {}
             Job::Cloth(t1, t2) | Job::Mesh(t1, t2) => {
-                let cloth_pair = matches!(job, Job::Cloth(..));
                 let (t1, t2) = (t1 as usize, t2 as usize);
-                // Cloth features are told apart by their slabs too.
-                let vertex_slabs = |p: u32, t: usize| {
-                    move || !cloth_pair || self.point_slabs[p as usize].overlaps(&self.triangle_slabs[t])
-                };
-                let edge_slabs = |[a, b]: [u32; 2], [c, d]: [u32; 2]| {
-                    move || {
-                        let slabs = self.point_slabs;
-                        let first = slabs[a as usize].union(&slabs[b as usize]);
-                        !cloth_pair || first.overlaps(&slabs[c as usize].union(&slabs[d as usize]))
-                    }
-                };
                 let first = self.cloth_side(t1);
                 let (second, owner2) = if matches!(job, Job::Mesh(..)) {
                     let points = self.obstacles.triangles[t2].map(|v| v + offset);
-                    let boxes = &self.obstacle_feature_box[t2];
-                    (Side { points, whole: &self.obstacle_box[t2], boxes }, &self.obstacles.ownership)
+                    let (whole, boxes) = (&self.obstacle_box[t2], &self.obstacle_feature_box[t2]);
+                    (Side { points, whole, boxes, slabs: &self.obstacle_slabs[t2] }, &self.obstacles.ownership)
                 } else {
                     (self.cloth_side(t2), self.ownership)
                 };
+                if !first.slabs.overlaps(second.slabs) {
+                    return;
+                }
+                // Feature pairs are told apart by their slabs too.
+                let point_slabs = self.point_slabs;
+                let vertex_slabs = |p: u32, triangle| slabs_meet(&point_slabs[p as usize], triangle);
                 for k in self.ownership.vertices(t1) {
                     let corner = (first.points[k], &first.boxes.corners[k]);
                     let sharing = self.ownership.vertex_sharing(t1, k);
-                    let slabs = vertex_slabs(first.points[k], t2);
+                    let slabs = vertex_slabs(first.points[k], second.slabs);
                     self.vertex_triangle(corner, (second.points, second.whole), slabs, sharing, found, count);
                 }
                 for k in owner2.vertices(t2) {
                     let corner = (second.points[k], &second.boxes.corners[k]);
                     let sharing = owner2.vertex_sharing(t2, k);
-                    let slabs = vertex_slabs(second.points[k], t1);
+                    let slabs = vertex_slabs(second.points[k], first.slabs);
                     self.vertex_triangle(corner, (first.points, first.whole), slabs, sharing, found, count);
                 }
                 for k1 in self.ownership.edges(t1) {
@@ -836,13 +855,14 @@ impl Narrow<'_> {
                     for k2 in owner2.edges(t2) {
                         let e2 = (edge(second.points, k2), &second.boxes.edges[k2]);
                         let sharing = self.ownership.edge_sharing(t1, k1) * owner2.edge_sharing(t2, k2);
-                        self.edge_edge(e1, e2, edge_slabs(e1.0, e2.0), sharing, found, count);
+                        self.edge_edge(e1, e2, edge_slabs_meet(point_slabs, e1.0, e2.0), sharing, found, count);
                     }
                 }
             }
             Job::Vertex(t, v) => {
                 let (v, tri_box) = (v + offset, &self.triangle_box[t as usize]);
-                self.vertex_triangle((v, &self.node_box[v as usize]), (cloth(t), tri_box), || true, 1, found, count);
+                let slabs = slabs_meet(&self.point_slabs[v as usize], &self.triangle_slabs[t as usize]);
+                self.vertex_triangle((v, &self.node_box[v as usize]), (cloth(t), tri_box), slabs, 1, found, count);
             }
             Job::Again(k) => {
                 let contact = &self.kept[k as usize];
@@ -867,7 +887,8 @@ impl Narrow<'_> {
                 for k in self.ownership.edges(t as usize) {
                     let sharing = self.ownership.edge_sharing(t as usize, k);
                     let e = (edge(cloth(t), k), &edges[k]);
-                    self.edge_edge(e, (obstacle, &obstacle_box), || true, sharing, found, count);
+                    let slabs = edge_slabs_meet(self.point_slabs, e.0, obstacle);
+                    self.edge_edge(e, (obstacle, &obstacle_box), slabs, sharing, found, count);
                 }
             }
         }

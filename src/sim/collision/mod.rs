@@ -282,7 +282,8 @@ struct Workspace {
     /// Per point: what the narrow phase reads of it, packed.
     point: Vec<detect::PointState>,
     triangle_box: Vec<Box3>,
-    /// Per cloth point: its face-diagonal slabs over the step in that frame.
+    /// Per point (cloth, then obstacles): its face-diagonal slabs over the
+    /// step in that frame.
     point_slabs: Vec<slabs::DiagonalSlabs>,
     /// Per cloth triangle: its face-diagonal slabs over the step.
     triangle_slabs: Vec<slabs::DiagonalSlabs>,
@@ -297,6 +298,9 @@ struct Workspace {
     fresh_obstacles: Vec<u32>,
     /// Per obstacle triangle: the boxes of its edges and corners over the step.
     obstacle_feature_box: Vec<detect::FeatureBoxes>,
+    /// Per obstacle triangle: its face-diagonal slabs over the step (stale
+    /// while parked, as its feature boxes).
+    obstacle_slabs: Vec<slabs::DiagonalSlabs>,
     pairs: Vec<(u32, u32)>,
     /// `(obstacle triangle, cloth triangle)` pairs of a broad phase.
     mesh_pairs: Vec<(u32, u32)>,
