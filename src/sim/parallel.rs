@@ -86,6 +86,37 @@ pub fn set_and_sum<T: Send + Sync>(
     partials.iter().sum()
 }
 
+/// [`set_and_sum`] on two slices at once: sets `a[i]` and `b[i]` together from
+/// index `i` (one pass over whatever both are computed from), then returns
+/// `(Σᵢ term_a(i, aᵢ), Σᵢ term_b(i, bᵢ))` with the chunks and the order of
+/// [`set_and_sum`], so the same rounding as two calls of it.
+pub fn set_and_sum_both<T: Send + Sync>(
+    (a, b): (&mut [T], &mut [T]),
+    partials: &mut Vec<f64>,
+    set: impl Fn(usize, &mut T, &mut T) + Sync,
+    (term_a, term_b): (impl Fn(usize, &T) -> f64 + Sync, impl Fn(usize, &T) -> f64 + Sync),
+) -> (f64, f64) {
+    assert_eq!(a.len(), b.len(), "two slices of one length");
+    partials.resize(2 * chunk_count(a.len()), 0.0);
+    let chunk_sums = |c: usize, (ca, cb): (&mut [T], &mut [T]), slots: &mut [f64]| {
+        for (k, (ea, eb)) in ca.iter_mut().zip(cb.iter_mut()).enumerate() {
+            set(c * CHUNK + k, ea, eb);
+        }
+        slots[0] = ca.iter().enumerate().map(|(k, e)| term_a(c * CHUNK + k, e)).sum();
+        slots[1] = cb.iter().enumerate().map(|(k, e)| term_b(c * CHUNK + k, e)).sum();
+    };
+    if a.len() < PARALLEL_FROM {
+        let chunks = a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK));
+        for (c, (pair, slots)) in chunks.zip(partials.chunks_mut(2)).enumerate() {
+            chunk_sums(c, pair, slots);
+        }
+    } else {
+        let chunks = a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK));
+        chunks.zip(partials.par_chunks_mut(2)).enumerate().for_each(|(c, (pair, slots))| chunk_sums(c, pair, slots));
+    }
+    (partials.iter().step_by(2).sum(), partials.iter().skip(1).step_by(2).sum())
+}
+
 /// `maxᵢ term(i)` over `0..len` (0 when empty). Exact in any order.
 pub fn max(len: usize, term: impl Fn(usize) -> f64 + Sync + Send) -> f64 {
     (0..len).into_par_iter().with_min_len(CHUNK).map(term).reduce(|| 0.0, f64::max)
@@ -134,6 +165,26 @@ mod tests {
                 let (values, total) = run(threads);
                 assert_eq!(values, expected);
                 assert_eq!(total.to_bits(), expected_total.to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn set_and_sum_both_is_two_set_and_sums_to_the_bit_on_any_thread_count() {
+        for len in [100, 10_000] {
+            let first = |i: usize| ((i * 7919) % 1000) as f64 * 1e-3 + 1e-9 * i as f64;
+            let second = |i: usize| ((i * 104_729) % 997) as f64 * 1e-2 - 3.0;
+            let mut expected = (vec![0.0; len], vec![0.0; len]);
+            let total_a = set_and_sum(&mut expected.0, &mut Vec::new(), |i, e| *e = first(i), |_, v| v * v);
+            let total_b = set_and_sum(&mut expected.1, &mut Vec::new(), |i, e| *e = second(i), |_, v| v.abs());
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let (mut a, mut b) = (vec![0.0; len], vec![0.0; len]);
+                let set = |i: usize, ea: &mut f64, eb: &mut f64| (*ea, *eb) = (first(i), second(i));
+                let terms = (|_: usize, v: &f64| v * v, |_: usize, v: &f64| v.abs());
+                let (sum_a, sum_b) = pool.install(|| set_and_sum_both((&mut a, &mut b), &mut Vec::new(), set, terms));
+                assert_eq!((&a, &b), (&expected.0, &expected.1));
+                assert_eq!((sum_a.to_bits(), sum_b.to_bits()), (total_a.to_bits(), total_b.to_bits()));
             }
         }
     }

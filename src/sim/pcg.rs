@@ -301,12 +301,17 @@ pub fn solve(
     // Start from the given guess or from its prescribed part alone, whichever
     // leaves the smaller residual: the last step's answer is a good guess for a
     // cloth at rest and a poor one for a swinging cloth.
-    let residual_of = |guess: &[Vector3<f64>], i: usize, r: &mut Vector3<f64>| {
-        *r = filter(i, b[i] - pattern.row_product(a, guess, i));
-    };
-    let mut measure = parallel::set_and_sum(residual, partials, |i, r| residual_of(x, i, r), norm_term);
     par_each(preconditioned, |i, cold| *cold = x[i] - filter(i, x[i]));
-    let cold_measure = parallel::set_and_sum(direction, partials, |i, r| residual_of(preconditioned, i, r), norm_term);
+    let guesses = (&*x, &preconditioned[..]);
+    let (mut measure, cold_measure) = parallel::set_and_sum_both(
+        (residual, direction),
+        partials,
+        |i, r, cold_r| {
+            let (product, cold_product) = pattern.row_products(a, guesses, i);
+            (*r, *cold_r) = (filter(i, b[i] - product), filter(i, b[i] - cold_product));
+        },
+        (norm_term, norm_term),
+    );
     if cold_measure < measure {
         x.copy_from_slice(preconditioned);
         residual.copy_from_slice(direction);

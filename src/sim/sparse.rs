@@ -81,6 +81,20 @@ impl BlockPattern {
         self.row(i).map(|s| a[s] * x[self.column(s)]).sum()
     }
 
+    /// `((A x)_i, (A y)_i)`: [`Self::row_product`] of two vectors, reading
+    /// the row's blocks once, each sum in the same order.
+    pub fn row_products(
+        &self,
+        a: &[Matrix3<f64>],
+        (x, y): (&[Vector3<f64>], &[Vector3<f64>]),
+        i: usize,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        self.row(i).fold((Vector3::zeros(), Vector3::zeros()), |(ax, ay), s| {
+            let (block, j) = (&a[s], self.column(s));
+            (ax + block * x[j], ay + block * y[j])
+        })
+    }
+
     /// `Σⱼ q_ij x_j` for row `i` of a matrix whose blocks are `q_ij · I`.
     pub fn scalar_row_product(&self, q: &[f64], i: usize, x: &[Vector3<f64>]) -> Vector3<f64> {
         self.row(i).map(|s| x[self.column(s)] * q[s]).sum()
@@ -121,6 +135,20 @@ mod tests {
         let expected = dense * flat;
         for (i, yi) in y.iter().enumerate() {
             assert!((yi - expected.fixed_rows::<3>(3 * i)).norm() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn row_products_are_each_row_product_to_the_bit() {
+        let p = BlockPattern::new(4, [[0, 1], [1, 2], [2, 3], [0, 3]]);
+        let a: Vec<Matrix3<f64>> =
+            (0..p.stored_blocks()).map(|s| Matrix3::from_fn(|r, c| ((s * 9 + r * 3 + c) as f64).sin())).collect();
+        let x: Vec<Vector3<f64>> = (0..4).map(|i| Vector3::new(0.1, -0.7, 1.3) * (i as f64 + 0.3).cos()).collect();
+        let y: Vec<Vector3<f64>> = (0..4).map(|i| Vector3::new(2.9, 0.01, -5.0) * (i as f64).exp()).collect();
+        for i in 0..4 {
+            let (ax, ay) = p.row_products(&a, (&x, &y), i);
+            assert_eq!(ax.map(f64::to_bits), p.row_product(&a, &x, i).map(f64::to_bits));
+            assert_eq!(ay.map(f64::to_bits), p.row_product(&a, &y, i).map(f64::to_bits));
         }
     }
 }
