@@ -8,8 +8,9 @@
 //! along a diagonal of the cloth's plane; the rest are as far along one.
 //! The boxes cannot tell any of these apart and the start distances can only
 //! after a test per feature pair. The slabs tell them apart with twelve
-//! comparisons: the narrow phase checks them for a cloth pair before its
-//! features, and for each feature pair that passes the box test.
+//! comparisons: the narrow phase checks them for a pair of triangles (cloth
+//! with cloth or with an obstacle) before its features, and for each feature
+//! pair that passes the box test (sharp obstacle vertices and edges too).
 //!
 //! Why a pair whose slabs do not overlap cannot touch: every point of a
 //! triangle at any time of the step is a convex combination of its corners,
