@@ -153,6 +153,7 @@ fn segment_meets_triangle_2d(seg: &[Coord<f64>; 2], t: &[Coord<f64>; 3]) -> bool
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::test_grid::uniform_samples;
 
     fn v(x: f64, y: f64, z: f64) -> Vector3<f64> {
         Vector3::new(x, y, z)
@@ -187,13 +188,7 @@ mod tests {
     /// over the flat neighbours a row apart.
     #[test]
     fn pairs_apart_along_a_diagonal_never_intersect() {
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut next = uniform_samples(0x9e37_79b9_7f4a_7c15);
         let (mut apart, mut meeting) = (0, 0);
         for case in 0..20_000 {
             // Every fourth pair flat in y = 0.75, the rest in general position.

@@ -1,4 +1,5 @@
-//! Cloths for tests: an `n × n` quad grid, a ring of particles.
+//! Cloths for tests: an `n × n` quad grid, a ring of particles; and a seeded
+//! sampler for tests that draw random cases.
 
 use nalgebra::Vector3;
 
@@ -29,4 +30,16 @@ pub fn quad_grid(n: usize) -> (Vec<[u32; 2]>, Vec<Vector3<f64>>) {
 /// The positions of a ring of `n` particles of radius 1 m in XZ.
 pub fn ring_positions(n: usize) -> Vec<Vector3<f64>> {
     (0..n).map(|i| i as f64 / n as f64 * std::f64::consts::TAU).map(|a| Vector3::new(a.cos(), 0.0, a.sin())).collect()
+}
+
+/// Uniform samples in `[-0.5, 0.5)` from a xorshift generator started at
+/// `seed` (not zero): the same cases on every run.
+pub fn uniform_samples(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
 }

@@ -87,6 +87,7 @@ mod tests {
     use super::*;
     use crate::metrics::triangles::triangles_intersect;
     use crate::sim::collision::geometry::{point_triangle_distance, segment_distance};
+    use crate::sim::test_grid::uniform_samples;
 
     /// The distance between two triangles, m: zero where they meet, else the
     /// least of their corner-triangle and edge-edge distances.
@@ -137,13 +138,7 @@ mod tests {
     /// sampled time (and some come within 1.5 times that).
     #[test]
     fn slabs_apart_keep_the_triangles_apart_over_the_step() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut next = uniform_samples(0x2545_f491_4f6c_dd1d);
         let growth = 0.01;
         let (mut apart, mut closest) = (0, f64::INFINITY);
         for _ in 0..4000 {
