@@ -142,10 +142,14 @@ impl SweptBvh {
     }
 
     /// Every pair of distinct leaves whose boxes overlap, as `(low, high)`,
-    /// sorted, into `out`.
-    pub fn self_pairs(&mut self, out: &mut Vec<(u32, u32)>) {
+    /// sorted, into `out`, but for the pairs `keep` refuses.
+    pub fn self_pairs(&mut self, keep: impl Fn(u32, u32) -> bool, out: &mut Vec<(u32, u32)>) {
         out.clear();
-        self.bvh.traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| out.push((a.min(b), a.max(b))));
+        self.bvh.traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| {
+            if keep(a, b) {
+                out.push((a.min(b), a.max(b)));
+            }
+        });
         self.sorter.sort(out);
     }
 
@@ -179,12 +183,14 @@ mod tests {
         let mut boxes = vec![unit_at(0.0), unit_at(0.5), unit_at(5.0)];
         let mut bvh = SweptBvh::new(&boxes);
         let mut pairs = Vec::new();
-        bvh.self_pairs(&mut pairs);
+        bvh.self_pairs(|_, _| true, &mut pairs);
         assert_eq!(pairs, vec![(0, 1)]);
         boxes[2] = unit_at(1.2);
         bvh.update(&boxes);
-        bvh.self_pairs(&mut pairs);
+        bvh.self_pairs(|_, _| true, &mut pairs);
         assert_eq!(pairs, vec![(0, 1), (1, 2)]);
+        bvh.self_pairs(|a, b| a.max(b) != 2, &mut pairs);
+        assert_eq!(pairs, vec![(0, 1)], "refused pairs are left out");
         let mut hits = Vec::new();
         bvh.overlapping(&Box3 { min: Vector3::new(1.3, 0.5, 0.5), max: Vector3::new(1.4, 0.6, 0.6) }, &mut hits);
         assert_eq!(hits, vec![1, 2]);
@@ -204,7 +210,7 @@ mod tests {
         assert!(a.overlaps(&b));
         let mut bvh = SweptBvh::new(&[a, b]);
         let mut pairs = Vec::new();
-        bvh.self_pairs(&mut pairs);
+        bvh.self_pairs(|_, _| true, &mut pairs);
         assert_eq!(pairs, vec![(0, 1)]);
     }
 }

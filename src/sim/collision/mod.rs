@@ -32,6 +32,7 @@
 //! A scene without self-collision and without mesh or sharp colliders builds
 //! none of this; a step whose boxes do not overlap runs no narrow phase.
 
+mod adjacent;
 pub mod bvh;
 pub mod ccd;
 mod detect;
@@ -51,6 +52,7 @@ use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
 
+use self::adjacent::AdjacentTriangles;
 use self::bvh::{Box3, SweptBvh};
 pub use self::detect::carried_displacement;
 use self::detect::{Detection, Job, Scope};
@@ -250,6 +252,8 @@ pub struct CollisionPipeline {
     triangle_garment: Vec<u32>,
     self_collision: Vec<bool>,
     ownership: Ownership,
+    /// The triangles sharing a vertex, in garments that collide with themselves.
+    adjacent: AdjacentTriangles,
     obstacles: Obstacles,
     particles: Vec<ParticleCollision>,
     bvh: Option<SweptBvh>,
@@ -302,6 +306,10 @@ struct Workspace {
     /// while parked, as its feature boxes).
     obstacle_slabs: Vec<slabs::DiagonalSlabs>,
     pairs: Vec<(u32, u32)>,
+    /// The hierarchy's pairs, before the adjacent pairs are merged in.
+    broad_pairs: Vec<(u32, u32)>,
+    /// Adjacent triangle pairs with a feature pair to test, sorted.
+    adjacent_pairs: Vec<(u32, u32)>,
     /// `(obstacle triangle, cloth triangle)` pairs of a broad phase.
     mesh_pairs: Vec<(u32, u32)>,
     hits: Vec<u32>,
@@ -394,9 +402,12 @@ impl CollisionPipeline {
                 Ownership::everything(triangles.len())
             }
         };
+        let colliding = |t: usize| self_collision[triangle_garment[t] as usize];
+        let adjacent = AdjacentTriangles::new(&triangles, particles.len(), colliding);
         needed.then(|| CollisionPipeline {
             settings,
             ownership,
+            adjacent,
             triangles,
             triangle_garment,
             self_collision,
@@ -667,11 +678,16 @@ mod tests {
     /// the step, lying on a box's sharp edge and a mesh tetrahedron: its
     /// pipeline with the step loaded, and the cloth's vertex count.
     fn crumpled(representative_triangles: bool) -> (CollisionPipeline, usize) {
+        crumpled_by(representative_triangles, 0.006)
+    }
+
+    /// [`crumpled`], shaken by up to `shake` (m) over the step.
+    fn crumpled_by(representative_triangles: bool, shake: f64) -> (CollisionPipeline, usize) {
         let grid = generate::grid(1.0, 16);
         let start: Vec<Vector3<f64>> =
             grid.positions.iter().map(|p| if p.x > 0.0 { Vector3::new(-p.x, 0.004, p.z) } else { *p }).collect();
         let end: Vec<Vector3<f64>> =
-            start.iter().enumerate().map(|(i, p)| p + Vector3::from_fn(|k, _| 0.006 * wobble(i, k))).collect();
+            start.iter().enumerate().map(|(i, p)| p + Vector3::from_fn(|k, _| shake * wobble(i, k))).collect();
         let h = 0.01;
         let mut velocity: Vec<Vector3<f64>> = start.iter().zip(&end).map(|(a, b)| (b - a) / h).collect();
         let mut end_mut = end.clone();
@@ -879,8 +895,26 @@ mod tests {
     /// boxes, hierarchies and owned features are exactly these.
     #[test]
     fn a_detection_finds_every_contact_a_brute_force_over_all_feature_pairs_finds() {
+        let (found, expected, n) = detected_and_brute_force(crumpled(true));
+        assert!(expected.len() > 100 && expected.iter().any(|k| k[4] >= n as u32), "the fold and the obstacles touch");
+        assert_eq!(found, expected);
+    }
+
+    /// The same, with the cloth shaken by most of an edge over the step:
+    /// triangles that share a vertex fold onto each other all over it.
+    #[test]
+    fn a_cloth_shaken_by_an_edge_finds_every_contact_a_brute_force_finds() {
+        let (found, expected, _) = detected_and_brute_force(crumpled_by(true, 0.05));
+        assert!(expected.len() > 1000, "{} contacts", expected.len());
+        assert_eq!(found, expected);
+    }
+
+    /// The contacts one detection of a loaded `pipeline` (with `n` cloth
+    /// points) finds, and those a brute force over all feature pairs finds.
+    fn detected_and_brute_force(
+        (mut pipeline, n): (CollisionPipeline, usize),
+    ) -> (BTreeSet<[u32; 5]>, BTreeSet<[u32; 5]>, usize) {
         use super::ccd::{Path, edge_edge, vertex_triangle};
-        let (mut pipeline, n) = crumpled(true);
         pipeline.detect(Detection::Proximity, Scope::All, &mut CollisionReport::default());
         let found: BTreeSet<[u32; 5]> = pipeline.ws.contacts.iter().map(Contact::key).collect();
 
@@ -926,8 +960,12 @@ mod tests {
         for &a in &cloth_edges {
             cloth_edges.range(a..).chain(&obstacle_edges).for_each(|&b| edge_against(a, b));
         }
-        assert!(expected.len() > 100 && expected.iter().any(|k| k[4] >= n as u32), "the fold and the obstacles touch");
-        assert_eq!(found, expected);
+        // Triangles that share a vertex touch (at the fold, or where shaken):
+        // the hierarchy leaves those pairs to the adjacent triangles' lists.
+        let joined = |a: u32, b: u32| cloth_edges.contains(&[a.min(b), a.max(b)]);
+        let adjacent = |k: &[u32; 5]| k[0] == 0 && k[2..].iter().any(|&corner| joined(k[1], corner));
+        assert!(expected.iter().any(adjacent), "adjacent triangles touch");
+        (found, expected, n)
     }
 
     /// Boxes are taken in a frame moving with the cloth's mean displacement:

@@ -52,10 +52,39 @@ impl PairSorter {
     }
 }
 
+/// The union of the sorted sequences `first` and `second` into `out`,
+/// sorted, each pair once.
+pub(super) fn merge_sorted(first: impl Iterator<Item = (u32, u32)>, second: &[(u32, u32)], out: &mut Vec<(u32, u32)>) {
+    out.clear();
+    let mut rest = second.iter().copied().peekable();
+    for pair in first {
+        while let Some(next) = rest.next_if(|&next| next <= pair) {
+            if out.last() != Some(&next) {
+                out.push(next);
+            }
+        }
+        if out.last() != Some(&pair) {
+            out.push(pair);
+        }
+    }
+    for next in rest {
+        if out.last() != Some(&next) {
+            out.push(next);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn a_merge_of_sorted_pairs_is_their_sorted_union() {
+        let mut out = Vec::new();
+        merge_sorted([(0, 1), (0, 3), (2, 5)].into_iter(), &[(0, 2), (0, 3), (4, 4)], &mut out);
+        assert_eq!(out, vec![(0, 1), (0, 2), (0, 3), (2, 5), (4, 4)]);
+    }
 
     #[test]
     fn no_pairs_stay_none_and_one_run_is_sorted_by_its_second_index() {

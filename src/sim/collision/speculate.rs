@@ -6,7 +6,8 @@
 //! predicted (a simulator carries each particle by its start velocity) and
 //! every point's box over the step is grown by [`MARGIN_IN_THICKNESSES`] of
 //! its thickness beyond what the real box needs. The cloth's hierarchy is
-//! refitted to these boxes and its self pairs and body pairs are found.
+//! refitted to these boxes and its self pairs (but those sharing a vertex,
+//! see [`super::adjacent`]) and body pairs are found.
 //! When the real ends are known, the first detection *confirms* them: a pair
 //! whose real boxes overlap is kept, and the triangles whose real box left
 //! its predicted one (they *escaped*) are queried again, as moved triangles
@@ -17,8 +18,10 @@
 
 use nalgebra::Vector3;
 
+use super::adjacent::share_a_vertex;
 use super::bvh::{Box3, SweptBvh};
 use super::detect::moved_pairs;
+use super::pair_sort::merge_sorted;
 use super::{CollisionPipeline, ParticleCollision, Workspace};
 use crate::sim::contact::StepWindow;
 
@@ -64,7 +67,9 @@ impl CollisionPipeline {
         };
         ws.speculative_pairs.clear();
         if cloth_pairs {
-            bvh.self_pairs(&mut ws.speculative_pairs);
+            let triangles = &self.triangles;
+            let apart = |a: u32, b: u32| !share_a_vertex(&triangles[a as usize], &triangles[b as usize]);
+            bvh.self_pairs(apart, &mut ws.speculative_pairs);
         }
         ws.speculative_mesh_pairs.clear();
         if let Some(obstacles) = &self.obstacle_bvh {
@@ -116,33 +121,13 @@ pub(super) fn leaf_margin<'a>(
 
 /// The speculation's self pairs whose real boxes overlap, with the escaped
 /// triangles' own, into the workspace's `pairs`, sorted: what
-/// [`SweptBvh::self_pairs`] of the real boxes gives.
-pub(super) fn confirmed_self_pairs(bvh: &SweptBvh, ws: &mut Workspace) {
+/// [`SweptBvh::self_pairs`] of the real boxes gives, without the pairs of
+/// `triangles` that share a vertex.
+pub(super) fn confirmed_self_pairs(bvh: &SweptBvh, triangles: &[[u32; 3]], ws: &mut Workspace) {
     let (boxes, escaped) = (&ws.triangle_box, &ws.moved_triangle);
     let scratch = (&mut ws.query_chunks, &mut ws.pair_sorter);
-    moved_pairs(bvh, (boxes, escaped, &ws.moved_list), None, scratch, &mut ws.escaped_pairs);
+    let apart = |a: u32, b: u32| !share_a_vertex(&triangles[a as usize], &triangles[b as usize]);
+    moved_pairs(bvh, (boxes, escaped, &ws.moved_list), None, apart, scratch, &mut ws.escaped_pairs);
     let kept = ws.speculative_pairs.iter().copied().filter(|&(a, b)| boxes[a as usize].overlaps(&boxes[b as usize]));
     merge_sorted(kept, &ws.escaped_pairs, &mut ws.pairs);
-}
-
-/// The union of the sorted sequences `first` and `second` into `out`,
-/// sorted, each pair once.
-fn merge_sorted(first: impl Iterator<Item = (u32, u32)>, second: &[(u32, u32)], out: &mut Vec<(u32, u32)>) {
-    out.clear();
-    let mut rest = second.iter().copied().peekable();
-    for pair in first {
-        while let Some(next) = rest.next_if(|&next| next <= pair) {
-            if out.last() != Some(&next) {
-                out.push(next);
-            }
-        }
-        if out.last() != Some(&pair) {
-            out.push(pair);
-        }
-    }
-    for next in rest {
-        if out.last() != Some(&next) {
-            out.push(next);
-        }
-    }
 }
