@@ -20,14 +20,55 @@ pub(super) fn share_a_vertex(a: &[u32; 3], b: &[u32; 3]) -> bool {
     a.iter().any(|v| b.contains(v))
 }
 
+/// Where two triangles that share a vertex meet, by corner index: corner
+/// `k` of a triangle, and its edge `k`, which runs from corner `k` to
+/// corner `k + 1` (mod 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Sharing {
+    /// One corner: each triangle's edge opposite it.
+    Corner { first_edge: u8, second_edge: u8 },
+    /// An edge, from the first's corner `k + 1` to its corner `k + 2`, `k`
+    /// being its corner off the edge (`first_corner`); the second's corner
+    /// off the edge, and its edges from that corner to the shared edge's
+    /// ends: to the first's corner `k + 2` and to its corner `k + 1`.
+    Edge { first_corner: u8, second_corner: u8, second_to_far: u8, second_to_near: u8 },
+}
+
+impl Sharing {
+    /// How triangles `first` and `second` (vertex indices, at least one
+    /// in common, not all) meet.
+    pub fn of(first: [u32; 3], second: [u32; 3]) -> Self {
+        let lacked = |tri: [u32; 3], other: [u32; 3]| (0..3).find(|&k| !other.contains(&tri[k])).unwrap_or(0);
+        let shared = |tri: [u32; 3], other: [u32; 3]| (0..3).find(|&k| other.contains(&tri[k])).unwrap_or(0);
+        let k1 = lacked(first, second);
+        let (near, far) = (first[(k1 + 1) % 3], first[(k1 + 2) % 3]);
+        if second.contains(&near) && second.contains(&far) {
+            let k2 = lacked(second, first);
+            let towards = |end: u32| if second[(k2 + 1) % 3] == end { k2 } else { (k2 + 2) % 3 };
+            let byte = |k: usize| k as u8;
+            Sharing::Edge {
+                first_corner: byte(k1),
+                second_corner: byte(k2),
+                second_to_far: byte(towards(far)),
+                second_to_near: byte(towards(near)),
+            }
+        } else {
+            let opposite = |tri, other| ((shared(tri, other) + 1) % 3) as u8;
+            Sharing::Corner { first_edge: opposite(first, second), second_edge: opposite(second, first) }
+        }
+    }
+}
+
 /// Per triangle, the other triangles it shares a vertex with, among the
-/// triangles of garments that collide with themselves.
+/// triangles of garments that collide with themselves, and how.
 #[derive(Clone, Debug, Default)]
 pub(super) struct AdjacentTriangles {
-    /// `start[t]..start[t + 1]` indexes `adjacent` for triangle `t`.
+    /// `start[t]..start[t + 1]` indexes `adjacent` and `sharing` for triangle `t`.
     start: Vec<u32>,
     /// The triangles adjacent to each, increasing.
     adjacent: Vec<u32>,
+    /// How each meets the triangle it is listed for (that one first).
+    sharing: Vec<Sharing>,
     /// The triangles listed, increasing.
     members: Vec<u32>,
 }
@@ -54,7 +95,7 @@ impl AdjacentTriangles {
                 fill[v as usize] += 1;
             }
         }
-        let (mut start, mut adjacent) = (vec![0u32; triangles.len() + 1], Vec::new());
+        let (mut start, mut adjacent, mut sharing) = (vec![0u32; triangles.len() + 1], Vec::new(), Vec::new());
         let mut near = Vec::new();
         for t in 0..triangles.len() {
             near.clear();
@@ -69,15 +110,26 @@ impl AdjacentTriangles {
                 near.retain(|&other| other as usize != t);
             }
             adjacent.extend_from_slice(&near);
+            sharing.extend(near.iter().map(|&other| Sharing::of(triangles[t], triangles[other as usize])));
             start[t + 1] = adjacent.len() as u32;
         }
-        AdjacentTriangles { start, adjacent, members }
+        AdjacentTriangles { start, adjacent, sharing, members }
     }
 
     /// The triangles sharing a vertex with triangle `t`, increasing.
     pub fn of(&self, t: u32) -> &[u32] {
+        &self.adjacent[self.range(t)]
+    }
+
+    /// How each of [`Self::of`]`(t)` meets triangle `t`.
+    pub fn sharing_of(&self, t: u32) -> &[Sharing] {
+        &self.sharing[self.range(t)]
+    }
+
+    /// Where triangle `t`'s lists are.
+    fn range(&self, t: u32) -> std::ops::Range<usize> {
         let t = t as usize;
-        self.start.get(t + 1).map_or(&[], |&end| &self.adjacent[self.start[t] as usize..end as usize])
+        self.start.get(t + 1).map_or(0..0, |&end| self.start[t] as usize..end as usize)
     }
 
     /// The triangles listed, increasing.
@@ -114,6 +166,16 @@ mod tests {
         for t in (0..triangles.len()).filter(|&t| triangles[t].iter().all(|&v| interior(v))) {
             assert!([12, 14].contains(&all.of(t as u32).len()), "triangle {t}: {}", all.of(t as u32).len());
         }
+    }
+
+    #[test]
+    fn sharing_names_the_corners_and_edges_where_two_triangles_meet() {
+        // Corner 2 of the first is corner 0 of the second: the edges opposite are 0 and 1.
+        assert_eq!(Sharing::of([5, 6, 7], [7, 8, 9]), Sharing::Corner { first_edge: 0, second_edge: 1 });
+        // Edge 6-7 is shared; 5 (corner 0) and 8 (corner 2) are off it. The
+        // second's edge 2 runs 8 → 7 (the first's corner 2), its edge 1 runs 6 → 8.
+        let sharing = Sharing::of([5, 6, 7], [7, 6, 8]);
+        assert_eq!(sharing, Sharing::Edge { first_corner: 0, second_corner: 2, second_to_far: 2, second_to_near: 1 });
     }
 
     #[test]

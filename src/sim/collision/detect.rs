@@ -9,7 +9,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::adjacent::{AdjacentTriangles, share_a_vertex};
+use super::adjacent::{AdjacentTriangles, Sharing, share_a_vertex};
 use super::bvh::{Box3, SweptBvh};
 use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_within};
 use super::features::Ownership;
@@ -751,9 +751,9 @@ fn add_adjacent_pairs(
             false => (adjacent.members(), None),
         };
         parallel_queries(scan, &mut chunks, &mut found, |a, _, pairs| {
-            for &h in adjacent.of(a) {
+            for (&h, &sharing) in adjacent.of(a).iter().zip(adjacent.sharing_of(a)) {
                 let once = moved_triangle.map_or(a < h, |moved| !moved[h as usize] || a < h);
-                if once && narrow.adjacent_pair_has_tests(a, h) {
+                if once && narrow.adjacent_pair_has_tests(a, h, sharing) {
                     pairs.push((a.min(h), a.max(h)));
                 }
             }
@@ -960,13 +960,13 @@ impl Narrow<'_> {
         ControlFlow::Continue(())
     }
 
-    /// Whether cloth triangles `t1` and `t2`, which share a vertex, have a
-    /// feature pair that passes its culls: exactly when their job would
-    /// run a test. Most such pairs fail a coarser test first
-    /// ([`Self::adjacent_features_may_meet`]).
-    fn adjacent_pair_has_tests(&self, t1: u32, t2: u32) -> bool {
+    /// Whether cloth triangles `t1` and `t2`, which share a vertex as
+    /// `sharing` says, have a feature pair that passes its culls: exactly
+    /// when their job would run a test. Most such pairs fail a coarser test
+    /// first ([`Self::adjacent_features_may_meet`]).
+    fn adjacent_pair_has_tests(&self, t1: u32, t2: u32, sharing: Sharing) -> bool {
         let (t1, t2) = (t1 as usize, t2 as usize);
-        if !self.adjacent_features_may_meet(t1, t2) {
+        if !self.adjacent_features_may_meet(t1, t2, sharing) {
             return false;
         }
         let (first, second) = (self.cloth_side(t1), self.cloth_side(t2));
@@ -975,35 +975,29 @@ impl Narrow<'_> {
     }
 
     /// Whether any feature pair of cloth triangles `t1` and `t2`, which
-    /// share a vertex, may pass its box and slab culls, by a test every
-    /// such pair would pass:
+    /// meet as `sharing` says, may pass its box and slab culls, by a test
+    /// every such pair would pass:
     ///
     /// * sharing one corner, one feature of a feature pair is made of
     ///   points the other triangle lacks (the corner is in one feature at
-    ///   most), so those points together meet the other triangle;
-    /// * sharing an edge, the feature pairs are each opposite corner
-    ///   against the other triangle, and the two edge pairs that join the
-    ///   opposite corners to different ends of the shared edge.
-    fn adjacent_features_may_meet(&self, t1: usize, t2: usize) -> bool {
-        let (first, second) = (self.pipeline_triangles[t1], self.pipeline_triangles[t2]);
-        // Corner k of a triangle; edge k runs from it to corner k + 1.
-        let lacked = |tri: [u32; 3], other: [u32; 3]| (0..3).find(|&k| !other.contains(&tri[k])).unwrap_or(0);
-        let k1 = lacked(first, second);
-        let (s1, s2) = (first[(k1 + 1) % 3], first[(k1 + 2) % 3]);
-        if second.contains(&s1) && second.contains(&s2) {
-            // Edges k1 (opposite corner to s1) and k1 + 2 (s2 to it) of the
-            // first, against the second's edge from its corner to s2 and to s1.
-            let k2 = lacked(second, first);
-            let towards = |end: u32| if second[(k2 + 1) % 3] == end { k2 } else { (k2 + 2) % 3 };
-            self.corner_meets_triangle(t1, k1, t2)
-                || self.corner_meets_triangle(t2, k2, t1)
-                || self.edges_meet((t1, k1), (t2, towards(s2)))
-                || self.edges_meet((t1, (k1 + 2) % 3), (t2, towards(s1)))
-        } else {
-            // The edge opposite the shared corner, each against the other.
-            let shared = |tri: [u32; 3], other: [u32; 3]| (0..3).find(|&k| other.contains(&tri[k])).unwrap_or(0);
-            let (c1, c2) = (shared(first, second), shared(second, first));
-            self.edge_meets_triangle((t1, (c1 + 1) % 3), t2) || self.edge_meets_triangle((t2, (c2 + 1) % 3), t1)
+    ///   most): the edge opposite the corner, which must meet the other
+    ///   triangle;
+    /// * sharing an edge, the feature pairs are each corner off it against
+    ///   the other triangle, and the two edge pairs that join those corners
+    ///   to different ends of the shared edge.
+    fn adjacent_features_may_meet(&self, t1: usize, t2: usize, sharing: Sharing) -> bool {
+        let k = |byte: u8| usize::from(byte);
+        match sharing {
+            Sharing::Corner { first_edge, second_edge } => {
+                self.edge_meets_triangle((t1, k(first_edge)), t2) || self.edge_meets_triangle((t2, k(second_edge)), t1)
+            }
+            Sharing::Edge { first_corner, second_corner, second_to_far, second_to_near } => {
+                let corner = k(first_corner);
+                self.corner_meets_triangle(t1, corner, t2)
+                    || self.corner_meets_triangle(t2, k(second_corner), t1)
+                    || self.edges_meet((t1, corner), (t2, k(second_to_far)))
+                    || self.edges_meet((t1, (corner + 2) % 3), (t2, k(second_to_near)))
+            }
         }
     }
 
@@ -1161,7 +1155,8 @@ mod tests {
         let adjacent: Vec<&(usize, usize)> = overlapping.iter().filter(|&&(a, b)| shares(a, b)).collect();
         assert!(adjacent.len() * 5 > overlapping.len() * 4, "{} of {} pairs", adjacent.len(), overlapping.len());
         for &&(a, b) in &adjacent {
-            assert!(!narrow.adjacent_features_may_meet(a, b), "triangles {a} and {b} pass the coarse test");
+            let sharing = Sharing::of(grid.triangles[a], grid.triangles[b]);
+            assert!(!narrow.adjacent_features_may_meet(a, b, sharing), "triangles {a} and {b} pass the coarse test");
         }
     }
 
