@@ -1,4 +1,5 @@
-//! Sorting a broad phase's pairs of leaf indices in linear time.
+//! Sorting a broad phase's pairs of leaf indices in linear time, and
+//! merging two sorted lists of them.
 //!
 //! A step's broad phase hands over tens of thousands of pairs (55,000 self
 //! pairs per step on `skirt_walk`) in traversal order; the detections need
@@ -6,7 +7,10 @@
 //! the same order at any thread count. A comparison sort took twice as long
 //! as the traversal that found them. Leaf indices are dense and each leaf
 //! overlaps only its neighbours, so the pairs are counted into one run per
-//! first index, and each short run is then sorted by its second.
+//! first index, and each short run is then sorted by its second. Sorted
+//! lists from different sources (the speculation's confirmed pairs and the
+//! escaped triangles' queries, the hierarchy's pairs and the adjacent
+//! triangles') are merged into one ([`merge_sorted`]).
 
 /// Scratch for [`PairSorter::sort`], kept from call to call so that a step
 /// allocates nothing once running.
