@@ -9,10 +9,10 @@
 //!
 //! So the hierarchy's traversals leave such pairs out (a look at the two
 //! triangles' corners), and a detection takes them from these lists
-//! instead, keeping a pair only when one of its feature pairs passes its
-//! culls ([`super::detect`]). Every pair that has a test to run is kept, and
-//! the kept pairs are merged into the traversal's sorted pairs, so the
-//! narrow phase runs the same tests in the same order as when the
+//! instead, keeping a pair only when a coarse test of the features it could
+//! test passes ([`super::detect`]), which every pair with a test to run
+//! passes. The kept pairs are merged into the traversal's sorted pairs, so
+//! the narrow phase runs the same tests in the same order as when the
 //! traversal listed them all.
 
 /// Whether triangles `a` and `b` (vertex indices) have a corner in common.

@@ -3,7 +3,6 @@
 //! colliders and sharp features) and the narrow phase on the features each
 //! triangle owns, in parallel chunks whose results are merged in order.
 
-use std::ops::ControlFlow;
 use std::time::Instant;
 
 use nalgebra::Vector3;
@@ -733,9 +732,11 @@ impl<'a> Narrow<'a> {
 }
 
 /// Merges into the workspace's sorted `pairs` the pairs of `adjacent`
-/// triangles ([`super::adjacent`]) that have a feature pair to test in a
-/// `detection` of `pipeline`: among all the listed triangles, or with
-/// `moved` the pairs holding a moved triangle.
+/// triangles ([`super::adjacent`]) that may have a feature pair to test in
+/// a `detection` of `pipeline` (by the coarse test of
+/// [`Narrow::adjacent_features_may_meet`]; their jobs cull the features
+/// themselves): among all the listed triangles, or with `moved` the pairs
+/// holding a moved triangle.
 fn add_adjacent_pairs(
     adjacent: &AdjacentTriangles,
     (pipeline, detection): (PipelineParts<'_>, Detection),
@@ -753,7 +754,7 @@ fn add_adjacent_pairs(
         parallel_queries(scan, &mut chunks, &mut found, |a, _, pairs| {
             for (&h, &sharing) in adjacent.of(a).iter().zip(adjacent.sharing_of(a)) {
                 let once = moved_triangle.map_or(a < h, |moved| !moved[h as usize] || a < h);
-                if once && narrow.adjacent_pair_has_tests(a, h, sharing) {
+                if once && narrow.adjacent_features_may_meet(a as usize, h as usize, sharing) {
                     pairs.push((a.min(h), a.max(h)));
                 }
             }
@@ -914,28 +915,16 @@ impl Narrow<'_> {
             || e1.iter().chain(&e2).all(|&v| self.kinematic(v))
     }
 
-    /// Whether `pair` goes untested (see the two culls above).
-    fn culled(&self, pair: &FeaturePair<'_>) -> bool {
-        match *pair {
-            FeaturePair::VertexTriangle { point, point_slabs, triangle, triangle_slabs, .. } => {
-                self.vertex_triangle_culled(point, triangle, slabs_meet(point_slabs, triangle_slabs))
-            }
-            FeaturePair::EdgeEdge { first, second, .. } => {
-                self.edge_edge_culled(first, second, edge_slabs_meet(self.point_slabs, first.0, second.0))
-            }
-        }
-    }
-
     /// Hands `visit` each feature pair that triangles `t1` (cloth, `first`)
     /// and `t2` (`second`, its features owned as `owner2` says) test: the
     /// corners each owns against the other triangle, then each edge `t1`
-    /// owns against each edge `t2` owns. Stops where `visit` breaks.
+    /// owns against each edge `t2` owns.
     fn feature_pairs<'s>(
         &'s self,
         (t1, first): (usize, Side<'s>),
         (t2, second, owner2): (usize, Side<'s>, &'s Ownership),
-        mut visit: impl FnMut(FeaturePair<'s>) -> ControlFlow<()>,
-    ) -> ControlFlow<()> {
+        mut visit: impl FnMut(FeaturePair<'s>),
+    ) {
         let point_slabs = self.point_slabs;
         for (t, side, other, owner) in [(t1, &first, &second, self.ownership), (t2, &second, &first, owner2)] {
             for k in owner.vertices(t) {
@@ -945,7 +934,7 @@ impl Narrow<'_> {
                     triangle: (other.points, other.whole),
                     triangle_slabs: other.slabs,
                     sharing: owner.vertex_sharing(t, k),
-                })?;
+                });
             }
         }
         for k1 in self.ownership.edges(t1) {
@@ -954,24 +943,9 @@ impl Narrow<'_> {
                     first: (edge(first.points, k1), &first.boxes.edges[k1]),
                     second: (edge(second.points, k2), &second.boxes.edges[k2]),
                     sharing: self.ownership.edge_sharing(t1, k1) * owner2.edge_sharing(t2, k2),
-                })?;
+                });
             }
         }
-        ControlFlow::Continue(())
-    }
-
-    /// Whether cloth triangles `t1` and `t2`, which share a vertex as
-    /// `sharing` says, have a feature pair that passes its culls: exactly
-    /// when their job would run a test. Most such pairs fail a coarser test
-    /// first ([`Self::adjacent_features_may_meet`]).
-    fn adjacent_pair_has_tests(&self, t1: u32, t2: u32, sharing: Sharing) -> bool {
-        let (t1, t2) = (t1 as usize, t2 as usize);
-        if !self.adjacent_features_may_meet(t1, t2, sharing) {
-            return false;
-        }
-        let (first, second) = (self.cloth_side(t1), self.cloth_side(t2));
-        let untested = |pair| if self.culled(&pair) { ControlFlow::Continue(()) } else { ControlFlow::Break(()) };
-        self.feature_pairs((t1, first), (t2, second, self.ownership), untested).is_break()
     }
 
     /// Whether any feature pair of cloth triangles `t1` and `t2`, which
@@ -1060,18 +1034,15 @@ impl Narrow<'_> {
                     return;
                 }
                 // Feature pairs are told apart by their slabs too.
-                let _ = self.feature_pairs((t1, first), (t2, second, owner2), |pair| {
-                    match pair {
-                        FeaturePair::VertexTriangle { point, point_slabs, triangle, triangle_slabs, sharing } => {
-                            let slabs = slabs_meet(point_slabs, triangle_slabs);
-                            self.vertex_triangle(point, triangle, slabs, sharing, found, count)
-                        }
-                        FeaturePair::EdgeEdge { first, second, sharing } => {
-                            let slabs = edge_slabs_meet(self.point_slabs, first.0, second.0);
-                            self.edge_edge(first, second, slabs, sharing, found, count)
-                        }
+                self.feature_pairs((t1, first), (t2, second, owner2), |pair| match pair {
+                    FeaturePair::VertexTriangle { point, point_slabs, triangle, triangle_slabs, sharing } => {
+                        let slabs = slabs_meet(point_slabs, triangle_slabs);
+                        self.vertex_triangle(point, triangle, slabs, sharing, found, count)
                     }
-                    ControlFlow::Continue(())
+                    FeaturePair::EdgeEdge { first, second, sharing } => {
+                        let slabs = edge_slabs_meet(self.point_slabs, first.0, second.0);
+                        self.edge_edge(first, second, slabs, sharing, found, count)
+                    }
                 });
             }
             Job::Vertex(t, v) => {
