@@ -306,8 +306,7 @@ impl CollisionPipeline {
                     ws.pairs.retain(|&(a, b)| boxes[a as usize].overlaps(&boxes[b as usize]));
                 }
             }
-            let pipeline = (&self.triangles[..], &self.ownership, &self.obstacles, &self.particles[..]);
-            add_adjacent_pairs(&self.adjacent, (pipeline, detection), moved, ws);
+            add_adjacent_pairs((&self.adjacent, triangles), moved, ws);
             let (garment, self_collision) = (&self.triangle_garment, &self.self_collision);
             ws.jobs.extend(ws.pairs.iter().filter_map(|&(a, b)| {
                 let (ga, gb) = (garment[a as usize], garment[b as usize]);
@@ -350,13 +349,28 @@ impl CollisionPipeline {
 
         let clock = Instant::now();
         let chunk_count = ws.jobs.len().div_ceil(JOBS_PER_CHUNK);
-        let mut chunks = std::mem::take(&mut ws.chunks);
-        chunks.resize_with(chunk_count.max(chunks.len()), Default::default);
-        let pipeline = (&self.triangles[..], &self.ownership, o, &self.particles[..]);
-        let narrow = Narrow::new(pipeline, ws, detection);
+        ws.chunks.resize_with(chunk_count.max(ws.chunks.len()), Default::default);
+        let narrow = Narrow {
+            pipeline_triangles: &self.triangles,
+            ownership: &self.ownership,
+            obstacles: o,
+            particles: &self.particles,
+            cloth_count: n,
+            point: &ws.point,
+            node_box: &ws.node_box,
+            triangle_box: &ws.triangle_box,
+            point_slabs: &ws.point_slabs,
+            triangle_slabs: &ws.triangle_slabs,
+            obstacle_box: &ws.obstacle_box,
+            feature_box: &ws.feature_box,
+            obstacle_feature_box: &ws.obstacle_feature_box,
+            obstacle_slabs: &ws.obstacle_slabs,
+            kept: &ws.kept,
+            detection,
+        };
         // Only the step's first detection is counted.
         let counting = report.passes == 0 && detection == Detection::Proximity;
-        ws.jobs.par_chunks(JOBS_PER_CHUNK).zip(chunks[..chunk_count].par_iter_mut()).for_each(
+        ws.jobs.par_chunks(JOBS_PER_CHUNK).zip(ws.chunks[..chunk_count].par_iter_mut()).for_each(
             |(jobs, (found, count))| {
                 found.clear();
                 *count = TestCount::default();
@@ -365,7 +379,6 @@ impl CollisionPipeline {
                 }
             },
         );
-        ws.chunks = chunks;
         ws.contacts.clear();
         for (found, count) in &ws.chunks[..chunk_count] {
             ws.contacts.extend_from_slice(found);
@@ -635,23 +648,6 @@ struct Side<'a> {
     slabs: &'a DiagonalSlabs,
 }
 
-/// One elementary test of a triangle pair, before its culls.
-#[derive(Clone, Copy)]
-enum FeaturePair<'a> {
-    /// A corner (point index, box, slabs) against the other triangle
-    /// (points, box, slabs), which `sharing` triangle pairs would test
-    /// without ownership.
-    VertexTriangle {
-        point: (u32, &'a Box3),
-        point_slabs: &'a DiagonalSlabs,
-        triangle: ([u32; 3], &'a Box3),
-        triangle_slabs: &'a DiagonalSlabs,
-        sharing: u32,
-    },
-    /// An edge of each (point indices, box), likewise.
-    EdgeEdge { first: ([u32; 2], &'a Box3), second: ([u32; 2], &'a Box3), sharing: u32 },
-}
-
 /// Whether slabs `a` and `b` overlap, asked only when called.
 fn slabs_meet<'a>(a: &'a DiagonalSlabs, b: &'a DiagonalSlabs) -> impl FnOnce() -> bool + 'a {
     move || a.overlaps(b)
@@ -698,77 +694,102 @@ struct Narrow<'a> {
     detection: Detection,
 }
 
-/// The pipeline's own parts a narrow phase reads: the cloth's triangles and
-/// their ownership, the obstacles and the cloth's particles.
-type PipelineParts<'a> = (&'a [[u32; 3]], &'a Ownership, &'a Obstacles, &'a [ParticleCollision]);
+/// What the coarse test of two adjacent cloth triangles reads: the cloth's
+/// triangles with their feature boxes, boxes and slabs, and its points'
+/// slabs.
+struct AdjacentCull<'a> {
+    triangles: &'a [[u32; 3]],
+    feature_box: &'a [FeatureBoxes],
+    triangle_box: &'a [Box3],
+    point_slabs: &'a [DiagonalSlabs],
+    triangle_slabs: &'a [DiagonalSlabs],
+}
 
-impl<'a> Narrow<'a> {
-    /// The narrow phase of a `detection` of `pipeline`, on the boxes and
-    /// paths of `ws`.
-    fn new(
-        (triangles, ownership, obstacles, particles): PipelineParts<'a>,
-        ws: &'a Workspace,
-        detection: Detection,
-    ) -> Self {
-        Narrow {
-            pipeline_triangles: triangles,
-            ownership,
-            obstacles,
-            particles,
-            cloth_count: particles.len(),
-            point: &ws.point,
-            node_box: &ws.node_box,
-            triangle_box: &ws.triangle_box,
-            point_slabs: &ws.point_slabs,
-            triangle_slabs: &ws.triangle_slabs,
-            obstacle_box: &ws.obstacle_box,
-            feature_box: &ws.feature_box,
-            obstacle_feature_box: &ws.obstacle_feature_box,
-            obstacle_slabs: &ws.obstacle_slabs,
-            kept: &ws.kept,
-            detection,
+impl AdjacentCull<'_> {
+    /// Whether any feature pair of cloth triangles `t1` and `t2`, which
+    /// meet as `sharing` says, may pass its box and slab culls, by a test
+    /// every such pair would pass:
+    ///
+    /// * sharing one corner, one feature of a feature pair is made of
+    ///   points the other triangle lacks (the corner is in one feature at
+    ///   most): the edge opposite the corner, which must meet the other
+    ///   triangle;
+    /// * sharing an edge, the feature pairs are each corner off it against
+    ///   the other triangle, and the two edge pairs that join those corners
+    ///   to different ends of the shared edge.
+    fn may_meet(&self, t1: usize, t2: usize, sharing: Sharing) -> bool {
+        let k = |byte: u8| usize::from(byte);
+        match sharing {
+            Sharing::Corner { first_edge, second_edge } => {
+                self.edge_meets_triangle((t1, k(first_edge)), t2) || self.edge_meets_triangle((t2, k(second_edge)), t1)
+            }
+            Sharing::Edge { first_corner, second_corner, second_to_far, second_to_near } => {
+                let corner = k(first_corner);
+                self.corner_meets_triangle(t1, corner, t2)
+                    || self.corner_meets_triangle(t2, k(second_corner), t1)
+                    || self.edges_meet((t1, corner), (t2, k(second_to_far)))
+                    || self.edges_meet((t1, (corner + 2) % 3), (t2, k(second_to_near)))
+            }
         }
+    }
+
+    /// The face-diagonal slabs of edge `k` of cloth triangle `t`.
+    fn edge_slabs(&self, (t, k): (usize, usize)) -> DiagonalSlabs {
+        let [a, b] = edge(self.triangles[t], k).map(|v| v as usize);
+        self.point_slabs[a].union(&self.point_slabs[b])
+    }
+
+    /// Whether corner `k` of cloth triangle `t` meets cloth triangle `other`
+    /// by box and by slabs.
+    fn corner_meets_triangle(&self, t: usize, k: usize, other: usize) -> bool {
+        let point = self.triangles[t][k] as usize;
+        self.feature_box[t].corners[k].overlaps(&self.triangle_box[other])
+            && self.point_slabs[point].overlaps(&self.triangle_slabs[other])
+    }
+
+    /// Whether edge `k` of cloth triangle `t` meets cloth triangle `other`
+    /// by box and by slabs.
+    fn edge_meets_triangle(&self, (t, k): (usize, usize), other: usize) -> bool {
+        self.feature_box[t].edges[k].overlaps(&self.triangle_box[other])
+            && self.edge_slabs((t, k)).overlaps(&self.triangle_slabs[other])
+    }
+
+    /// Whether edge `k1` of cloth triangle `t1` and edge `k2` of cloth
+    /// triangle `t2` meet by box and by slabs.
+    fn edges_meet(&self, (t1, k1): (usize, usize), (t2, k2): (usize, usize)) -> bool {
+        self.feature_box[t1].edges[k1].overlaps(&self.feature_box[t2].edges[k2])
+            && self.edge_slabs((t1, k1)).overlaps(&self.edge_slabs((t2, k2)))
     }
 }
 
 /// Merges into the workspace's sorted `pairs` the pairs of `adjacent`
-/// triangles ([`super::adjacent`]) that may have a feature pair to test in
-/// a `detection` of `pipeline` (by the coarse test of
-/// [`Narrow::adjacent_features_may_meet`]; their jobs cull the features
-/// themselves): among all the listed triangles, or with `moved` the pairs
-/// holding a moved triangle.
-fn add_adjacent_pairs(
-    adjacent: &AdjacentTriangles,
-    (pipeline, detection): (PipelineParts<'_>, Detection),
-    moved: bool,
-    ws: &mut Workspace,
-) {
-    let mut found = std::mem::take(&mut ws.adjacent_pairs);
-    let mut chunks = std::mem::take(&mut ws.query_chunks);
-    {
-        let narrow = Narrow::new(pipeline, ws, detection);
-        let (scan, moved_triangle) = match moved {
-            true => (&ws.moved_list[..], Some(&ws.moved_triangle[..])),
-            false => (adjacent.members(), None),
-        };
-        parallel_queries(scan, &mut chunks, &mut found, |a, _, pairs| {
-            for (&h, &sharing) in adjacent.of(a).iter().zip(adjacent.sharing_of(a)) {
-                let once = moved_triangle.map_or(a < h, |moved| !moved[h as usize] || a < h);
-                if once && narrow.adjacent_features_may_meet(a as usize, h as usize, sharing) {
-                    pairs.push((a.min(h), a.max(h)));
-                }
+/// cloth `triangles` ([`super::adjacent`]) that pass the coarse test of
+/// [`AdjacentCull::may_meet`] (their jobs cull the features themselves):
+/// among all the listed triangles, or with `moved` the pairs holding a
+/// moved triangle.
+fn add_adjacent_pairs((adjacent, triangles): (&AdjacentTriangles, &[[u32; 3]]), moved: bool, ws: &mut Workspace) {
+    let Workspace { feature_box, triangle_box, point_slabs, triangle_slabs, moved_list, moved_triangle, .. } = ws;
+    let cull = AdjacentCull { triangles, feature_box, triangle_box, point_slabs, triangle_slabs };
+    let (scan, moved_triangle) = match moved {
+        true => (&moved_list[..], Some(&moved_triangle[..])),
+        false => (adjacent.members(), None),
+    };
+    let found = &mut ws.adjacent_pairs;
+    parallel_queries(scan, &mut ws.query_chunks, found, |a, _, pairs| {
+        for (&h, &sharing) in adjacent.of(a).iter().zip(adjacent.sharing_of(a)) {
+            let once = moved_triangle.map_or(a < h, |moved| !moved[h as usize] || a < h);
+            if once && cull.may_meet(a as usize, h as usize, sharing) {
+                pairs.push((a.min(h), a.max(h)));
             }
-        });
-    }
-    ws.query_chunks = chunks;
+        }
+    });
     if !found.is_empty() {
         if moved {
-            ws.pair_sorter.sort(&mut found);
+            ws.pair_sorter.sort(found);
         }
         std::mem::swap(&mut ws.pairs, &mut ws.broad_pairs);
-        merge_sorted(ws.broad_pairs.iter().copied(), &found, &mut ws.pairs);
+        merge_sorted(ws.broad_pairs.iter().copied(), found, &mut ws.pairs);
     }
-    ws.adjacent_pairs = found;
 }
 
 /// Elementary tests of a detection that passed the box test.
@@ -840,7 +861,10 @@ impl Narrow<'_> {
         found: &mut Vec<Contact>,
         count: &mut TestCount,
     ) {
-        if self.vertex_triangle_culled((p, p_box), (tri, tri_box), slabs_meet) {
+        if tri.contains(&p) || !p_box.overlaps(tri_box) || !slabs_meet() {
+            return;
+        }
+        if self.kinematic(p) && tri.iter().all(|&v| self.kinematic(v)) {
             return;
         }
         count.add(sharing);
@@ -869,10 +893,13 @@ impl Narrow<'_> {
         found: &mut Vec<Contact>,
         count: &mut TestCount,
     ) {
-        if self.edge_edge_culled((e1, box1), (e2, box2), slabs_meet) {
+        if e1.iter().any(|v| e2.contains(v)) || !box1.overlaps(box2) || !slabs_meet() {
             return;
         }
         let nodes = [e1[0], e1[1], e2[0], e2[1]];
+        if nodes.iter().all(|&v| self.kinematic(v)) {
+            return;
+        }
         count.add(sharing);
         let thickness = self.thickness(&nodes);
         let touching = self.detection.reach(thickness);
@@ -883,124 +910,6 @@ impl Narrow<'_> {
             let friction = self.friction(&nodes, body);
             found.push(Contact { kind: ContactKind::EdgeEdge, nodes, hit, thickness, friction });
         }
-    }
-
-    /// Whether vertex `p` (box `p_box`) and triangle `tri` (box `tri_box`)
-    /// go untested: the vertex is a corner, the boxes or (`slabs_meet`) the
-    /// slabs are apart, or all four points move by prescription.
-    fn vertex_triangle_culled(
-        &self,
-        (p, p_box): (u32, &Box3),
-        (tri, tri_box): ([u32; 3], &Box3),
-        slabs_meet: impl FnOnce() -> bool,
-    ) -> bool {
-        tri.contains(&p)
-            || !p_box.overlaps(tri_box)
-            || !slabs_meet()
-            || (self.kinematic(p) && tri.iter().all(|&v| self.kinematic(v)))
-    }
-
-    /// Whether edges `e1` and `e2` (boxes `box1`, `box2`) go untested: they
-    /// share a point, their boxes or (`slabs_meet`) their slabs are apart, or
-    /// all four points move by prescription.
-    fn edge_edge_culled(
-        &self,
-        (e1, box1): ([u32; 2], &Box3),
-        (e2, box2): ([u32; 2], &Box3),
-        slabs_meet: impl FnOnce() -> bool,
-    ) -> bool {
-        e1.iter().any(|v| e2.contains(v))
-            || !box1.overlaps(box2)
-            || !slabs_meet()
-            || e1.iter().chain(&e2).all(|&v| self.kinematic(v))
-    }
-
-    /// Hands `visit` each feature pair that triangles `t1` (cloth, `first`)
-    /// and `t2` (`second`, its features owned as `owner2` says) test: the
-    /// corners each owns against the other triangle, then each edge `t1`
-    /// owns against each edge `t2` owns.
-    fn feature_pairs<'s>(
-        &'s self,
-        (t1, first): (usize, Side<'s>),
-        (t2, second, owner2): (usize, Side<'s>, &'s Ownership),
-        mut visit: impl FnMut(FeaturePair<'s>),
-    ) {
-        let point_slabs = self.point_slabs;
-        for (t, side, other, owner) in [(t1, &first, &second, self.ownership), (t2, &second, &first, owner2)] {
-            for k in owner.vertices(t) {
-                visit(FeaturePair::VertexTriangle {
-                    point: (side.points[k], &side.boxes.corners[k]),
-                    point_slabs: &point_slabs[side.points[k] as usize],
-                    triangle: (other.points, other.whole),
-                    triangle_slabs: other.slabs,
-                    sharing: owner.vertex_sharing(t, k),
-                });
-            }
-        }
-        for k1 in self.ownership.edges(t1) {
-            for k2 in owner2.edges(t2) {
-                visit(FeaturePair::EdgeEdge {
-                    first: (edge(first.points, k1), &first.boxes.edges[k1]),
-                    second: (edge(second.points, k2), &second.boxes.edges[k2]),
-                    sharing: self.ownership.edge_sharing(t1, k1) * owner2.edge_sharing(t2, k2),
-                });
-            }
-        }
-    }
-
-    /// Whether any feature pair of cloth triangles `t1` and `t2`, which
-    /// meet as `sharing` says, may pass its box and slab culls, by a test
-    /// every such pair would pass:
-    ///
-    /// * sharing one corner, one feature of a feature pair is made of
-    ///   points the other triangle lacks (the corner is in one feature at
-    ///   most): the edge opposite the corner, which must meet the other
-    ///   triangle;
-    /// * sharing an edge, the feature pairs are each corner off it against
-    ///   the other triangle, and the two edge pairs that join those corners
-    ///   to different ends of the shared edge.
-    fn adjacent_features_may_meet(&self, t1: usize, t2: usize, sharing: Sharing) -> bool {
-        let k = |byte: u8| usize::from(byte);
-        match sharing {
-            Sharing::Corner { first_edge, second_edge } => {
-                self.edge_meets_triangle((t1, k(first_edge)), t2) || self.edge_meets_triangle((t2, k(second_edge)), t1)
-            }
-            Sharing::Edge { first_corner, second_corner, second_to_far, second_to_near } => {
-                let corner = k(first_corner);
-                self.corner_meets_triangle(t1, corner, t2)
-                    || self.corner_meets_triangle(t2, k(second_corner), t1)
-                    || self.edges_meet((t1, corner), (t2, k(second_to_far)))
-                    || self.edges_meet((t1, (corner + 2) % 3), (t2, k(second_to_near)))
-            }
-        }
-    }
-
-    /// The face-diagonal slabs of edge `k` of cloth triangle `t`.
-    fn edge_slabs(&self, (t, k): (usize, usize)) -> DiagonalSlabs {
-        let [a, b] = edge(self.pipeline_triangles[t], k).map(|v| v as usize);
-        self.point_slabs[a].union(&self.point_slabs[b])
-    }
-
-    /// Whether corner `k` of cloth triangle `t` meets cloth triangle `other`
-    /// by box and by slabs.
-    fn corner_meets_triangle(&self, t: usize, k: usize, other: usize) -> bool {
-        let point = self.pipeline_triangles[t][k] as usize;
-        self.feature_box[t].corners[k].overlaps(&self.triangle_box[other])
-            && self.point_slabs[point].overlaps(&self.triangle_slabs[other])
-    }
-
-    /// Whether edge `k` of cloth triangle `t` meets cloth triangle `other`
-    /// by box and by slabs.
-    fn edge_meets_triangle(&self, (t, k): (usize, usize), other: usize) -> bool {
-        self.feature_box[t].edges[k].overlaps(&self.triangle_box[other])
-            && self.edge_slabs((t, k)).overlaps(&self.triangle_slabs[other])
-    }
-
-    /// Whether edge `k1` of cloth triangle `t1` and edge `k2` of cloth
-    /// triangle `t2` meet by box and by slabs.
-    fn edges_meet(&self, (t1, k1): (usize, usize), (t2, k2): (usize, usize)) -> bool {
-        self.feature_box[t1].edges[k1].overlaps(&self.feature_box[t2].edges[k2])
-            && self.edge_slabs((t1, k1)).overlaps(&self.edge_slabs((t2, k2)))
     }
 
     /// Cloth triangle `t` as one side of a pair.
@@ -1034,16 +943,28 @@ impl Narrow<'_> {
                     return;
                 }
                 // Feature pairs are told apart by their slabs too.
-                self.feature_pairs((t1, first), (t2, second, owner2), |pair| match pair {
-                    FeaturePair::VertexTriangle { point, point_slabs, triangle, triangle_slabs, sharing } => {
-                        let slabs = slabs_meet(point_slabs, triangle_slabs);
-                        self.vertex_triangle(point, triangle, slabs, sharing, found, count)
+                let point_slabs = self.point_slabs;
+                let vertex_slabs = |p: u32, triangle| slabs_meet(&point_slabs[p as usize], triangle);
+                for k in self.ownership.vertices(t1) {
+                    let corner = (first.points[k], &first.boxes.corners[k]);
+                    let sharing = self.ownership.vertex_sharing(t1, k);
+                    let slabs = vertex_slabs(first.points[k], second.slabs);
+                    self.vertex_triangle(corner, (second.points, second.whole), slabs, sharing, found, count);
+                }
+                for k in owner2.vertices(t2) {
+                    let corner = (second.points[k], &second.boxes.corners[k]);
+                    let sharing = owner2.vertex_sharing(t2, k);
+                    let slabs = vertex_slabs(second.points[k], first.slabs);
+                    self.vertex_triangle(corner, (first.points, first.whole), slabs, sharing, found, count);
+                }
+                for k1 in self.ownership.edges(t1) {
+                    let e1 = (edge(first.points, k1), &first.boxes.edges[k1]);
+                    for k2 in owner2.edges(t2) {
+                        let e2 = (edge(second.points, k2), &second.boxes.edges[k2]);
+                        let sharing = self.ownership.edge_sharing(t1, k1) * owner2.edge_sharing(t2, k2);
+                        self.edge_edge(e1, e2, edge_slabs_meet(point_slabs, e1.0, e2.0), sharing, found, count);
                     }
-                    FeaturePair::EdgeEdge { first, second, sharing } => {
-                        let slabs = edge_slabs_meet(self.point_slabs, first.0, second.0);
-                        self.edge_edge(first, second, slabs, sharing, found, count)
-                    }
-                });
+                }
             }
             Job::Vertex(t, v) => {
                 let (v, tri_box) = (v + offset, &self.triangle_box[t as usize]);
@@ -1116,8 +1037,10 @@ mod tests {
         let jobs = &pipeline.ws.jobs;
         let adjacent_job = |job: &Job| matches!(*job, Job::Cloth(a, b) if shares(a as usize, b as usize));
         assert!(!jobs.iter().any(adjacent_job), "an adjacent pair is a job");
-        let parts = (&pipeline.triangles[..], &pipeline.ownership, &pipeline.obstacles, &pipeline.particles[..]);
-        let narrow = Narrow::new(parts, &pipeline.ws, Detection::Proximity);
+        let ws = &pipeline.ws;
+        let (feature_box, triangle_box, point_slabs) = (&ws.feature_box, &ws.triangle_box, &ws.point_slabs);
+        let (triangles, triangle_slabs) = (&pipeline.triangles, &ws.triangle_slabs);
+        let cull = AdjacentCull { triangles, feature_box, triangle_box, point_slabs, triangle_slabs };
         let boxes = &pipeline.ws.triangle_box;
         let overlapping: Vec<(usize, usize)> = (0..count)
             .flat_map(|a| (a + 1..count).map(move |b| (a, b)))
@@ -1127,7 +1050,7 @@ mod tests {
         assert!(adjacent.len() * 5 > overlapping.len() * 4, "{} of {} pairs", adjacent.len(), overlapping.len());
         for &&(a, b) in &adjacent {
             let sharing = Sharing::of(grid.triangles[a], grid.triangles[b]);
-            assert!(!narrow.adjacent_features_may_meet(a, b, sharing), "triangles {a} and {b} pass the coarse test");
+            assert!(!cull.may_meet(a, b, sharing), "triangles {a} and {b} pass the coarse test");
         }
     }
 

@@ -308,7 +308,7 @@ struct Workspace {
     pairs: Vec<(u32, u32)>,
     /// The hierarchy's pairs, before the adjacent pairs are merged in.
     broad_pairs: Vec<(u32, u32)>,
-    /// Adjacent triangle pairs with a feature pair to test, sorted.
+    /// Adjacent triangle pairs that pass the coarse test, sorted.
     adjacent_pairs: Vec<(u32, u32)>,
     /// `(obstacle triangle, cloth triangle)` pairs of a broad phase.
     mesh_pairs: Vec<(u32, u32)>,
@@ -402,12 +402,12 @@ impl CollisionPipeline {
                 Ownership::everything(triangles.len())
             }
         };
-        let colliding = |t: usize| self_collision[triangle_garment[t] as usize];
-        let adjacent = AdjacentTriangles::new(&triangles, particles.len(), colliding);
         needed.then(|| CollisionPipeline {
             settings,
             ownership,
-            adjacent,
+            adjacent: AdjacentTriangles::new(&triangles, particles.len(), |t| {
+                self_collision[triangle_garment[t] as usize]
+            }),
             triangles,
             triangle_garment,
             self_collision,
