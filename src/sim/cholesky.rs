@@ -61,7 +61,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::dissection::{Adjacency, nested_dissection};
 use super::parallel;
 use super::pcg::Constraint;
-use super::sparse::BlockPattern;
+use super::sparse::{BlockPattern, SystemMatrix};
 use super::supernodal::{Scalar, SupernodalFactor, SupernodalTree};
 
 /// Iterations a kept (stale) factor gets before it is rebuilt: a failed try
@@ -526,15 +526,10 @@ impl LaggedCholesky {
     /// single precision unless the system has needed double. On failure the
     /// old factor is dropped and the caller must precondition otherwise until
     /// a later factor succeeds.
-    pub fn refactor(
-        &mut self,
-        pattern: &BlockPattern,
-        a: &[Matrix3<f64>],
-        constraints: &[Constraint],
-    ) -> Result<(), CholeskyError> {
+    pub fn refactor(&mut self, matrix: SystemMatrix, constraints: &[Constraint]) -> Result<(), CholeskyError> {
         self.current = false;
-        self.filter_blocks(pattern, a, constraints);
-        self.compensate_dropped(pattern, a, constraints);
+        self.filter_blocks(matrix, constraints);
+        self.compensate_dropped(matrix, constraints);
         let (tree, lower, filtered) = (&*self.tree, &self.lower, &self.filtered);
         if let Factor::Single(single) = &mut self.numeric {
             if single.factor(tree, lower, filtered).is_ok() {
@@ -551,33 +546,39 @@ impl LaggedCholesky {
     }
 
     /// Fills `filtered` with the blocks of `S A S + c (I − S)` the factor
-    /// keeps, for block values `a` on `pattern`; the dropped slots stay zero
-    /// (the factor does not read them).
-    fn filter_blocks(&mut self, pattern: &BlockPattern, a: &[Matrix3<f64>], constraints: &[Constraint]) {
-        let (slot_rows, kept) = (&self.slot_rows, &self.kept);
+    /// keeps, for `matrix` (on the pattern the factor was made for); the
+    /// dropped slots stay zero (the factor does not read them).
+    fn filter_blocks(&mut self, matrix: SystemMatrix, constraints: &[Constraint]) {
+        let (slot_rows, kept, pattern) = (&self.slot_rows, &self.kept, &matrix.pattern.all);
         parallel::for_each_indexed(&mut self.filtered, |s, block| {
             if kept[s] {
                 let (j, i) = (slot_rows[s] as usize, pattern.column(s));
-                *block = filtered_block(&constraints[j], &a[s], &constraints[i], i == j);
+                *block = filtered_block(&constraints[j], &matrix.block(j, s), &constraints[i], i == j);
             }
         });
     }
 
-    /// Adds, for each dropped block `D` of `a` (filtered by `constraints`),
-    /// `‖D‖₂ I` to the two diagonal blocks of `filtered` it couples.
-    fn compensate_dropped(&mut self, pattern: &BlockPattern, a: &[Matrix3<f64>], constraints: &[Constraint]) {
+    /// Adds, for each dropped block `D` of `matrix` (filtered by
+    /// `constraints`), `‖D‖₂ I` to the two diagonal blocks of `filtered` it
+    /// couples.
+    fn compensate_dropped(&mut self, matrix: SystemMatrix, constraints: &[Constraint]) {
         let dropped = &self.dropped;
         parallel::for_each_indexed(&mut self.bounds, |b, bound| {
             let block = dropped.blocks[b];
             let (row, column) = (&constraints[block.row as usize], &constraints[block.column as usize]);
-            *bound = spectral_norm_bound(&filtered_block(row, &a[block.slot as usize], column, false));
+            let (i, slot) = (block.row as usize, block.slot as usize);
+            *bound = match matrix.isotropic(i, slot) {
+                // The bound of `c I` unfiltered, |c| (exact, and the same to the bit).
+                Some(c) if *row == Constraint::Free && *column == Constraint::Free => c.abs(),
+                _ => spectral_norm_bound(&filtered_block(row, &matrix.block(i, slot), column, false)),
+            };
         });
         let bounds = &self.bounds;
         parallel::for_each_indexed(&mut self.compensation, |i, sum| {
             *sum = dropped.of(i).iter().map(|&b| bounds[b as usize]).sum();
         });
         for (i, extra) in self.compensation.iter().enumerate() {
-            self.filtered[pattern.diagonal(i)] += Matrix3::identity() * *extra;
+            self.filtered[matrix.pattern.all.diagonal(i)] += Matrix3::identity() * *extra;
         }
     }
 
@@ -686,6 +687,7 @@ impl std::fmt::Debug for LaggedCholesky {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::sparse::SystemPattern;
     use nalgebra::{DMatrix, DVector};
 
     use crate::sim::test_grid::{quad_grid, ring_positions};
@@ -730,6 +732,17 @@ mod tests {
         m
     }
 
+    /// Refactors `cholesky` for the full blocks `a` on `pattern`.
+    fn refactor_blocks(
+        cholesky: &mut LaggedCholesky,
+        pattern: &BlockPattern,
+        a: &[Matrix3<f64>],
+        constraints: &[Constraint],
+    ) -> Result<(), CholeskyError> {
+        let system = SystemPattern::blocks_only(pattern.clone());
+        cholesky.refactor(SystemMatrix { pattern: &system, blocks: a, isotropic_scale: &[] }, constraints)
+    }
+
     fn flatten(v: &[Vector3<f64>]) -> DVector<f64> {
         DVector::from_iterator(3 * v.len(), v.iter().flat_map(|x| x.iter().copied()))
     }
@@ -744,7 +757,7 @@ mod tests {
         constraints[8] = Constraint::Normal(Vector3::new(1.0, 2.0, 2.0) / 3.0);
         let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(12), &ring_positions(12)).unwrap();
         assert!(!cholesky.begin_solve(), "no factor yet");
-        cholesky.refactor(&pattern, &a, &constraints).unwrap();
+        refactor_blocks(&mut cholesky, &pattern, &a, &constraints).unwrap();
 
         let filtered = dense(&pattern, |s, i| {
             let j = pattern.column(s);
@@ -764,7 +777,7 @@ mod tests {
         let single = error(&mut cholesky);
         assert!(single < 1e-3, "single precision: relative error {single:e}");
         cholesky.use_double_precision();
-        cholesky.refactor(&pattern, &a, &constraints).unwrap();
+        refactor_blocks(&mut cholesky, &pattern, &a, &constraints).unwrap();
         let double = error(&mut cholesky);
         assert!(double < 1e-12, "double precision: relative error {double:e}");
     }
@@ -817,7 +830,7 @@ mod tests {
         let mut cholesky = LaggedCholesky::new(&pattern, &neighbours, &ring_positions(n)).unwrap();
         cholesky.use_double_precision();
         let free = vec![Constraint::Free; n];
-        cholesky.refactor(&pattern, &a, &free).unwrap();
+        refactor_blocks(&mut cholesky, &pattern, &a, &free).unwrap();
 
         // P⁻¹ column by column, then P.
         let mut inverse = DMatrix::zeros(3 * n, 3 * n);
@@ -895,7 +908,7 @@ mod tests {
         let (pattern, a) = ring(6, 5);
         let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(6), &ring_positions(6)).unwrap();
         cholesky.begin_solve();
-        cholesky.refactor(&pattern, &a, &[Constraint::Free; 6]).unwrap();
+        refactor_blocks(&mut cholesky, &pattern, &a, &[Constraint::Free; 6]).unwrap();
         assert!(cholesky.begin_solve(), "a kept factor is tried");
         cholesky.stale_failed();
         let tries: Vec<bool> = (0..RETRY_STALE_AFTER).map(|_| cholesky.begin_solve()).collect();
@@ -911,7 +924,7 @@ mod tests {
         a[pattern.diagonal(2)] = -Matrix3::identity();
         let mut cholesky = LaggedCholesky::new(&pattern, &ring_pairs(6), &ring_positions(6)).unwrap();
         let free = vec![Constraint::Free; 6];
-        assert_eq!(cholesky.refactor(&pattern, &a, &free), Err(CholeskyError::NotPositiveDefinite));
+        assert_eq!(refactor_blocks(&mut cholesky, &pattern, &a, &free), Err(CholeskyError::NotPositiveDefinite));
         assert!(!cholesky.begin_solve(), "no factor is left to try");
     }
 }

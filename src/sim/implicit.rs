@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use super::cloth::Cloth;
 use super::forces::{SpringStiffness, spring_damping_matrix, spring_force, spring_stiffness_definite};
 use super::parallel::CHUNK;
-use super::sparse::BlockPattern;
+use super::sparse::{BlockPattern, SystemMatrix, SystemPattern};
 
 /// Per-particle coefficients, refreshed from the fabrics whenever they change.
 #[derive(Clone, Debug, Default)]
@@ -75,17 +75,21 @@ impl SpringCoefficients {
 /// which block, and the constant bending couplings.
 #[derive(Clone, Debug)]
 pub struct SystemLayout {
-    /// Block pattern of `A`.
-    pub pattern: BlockPattern,
-    /// Row of each slot.
-    slot_row: Vec<u32>,
-    /// Per slot, the start of its entries in `slot_springs`.
-    slot_spring_start: Vec<usize>,
-    /// Springs contributing to each slot, as `2·spring + end`: for a diagonal
-    /// slot, `end` says which end of the spring the row's particle is.
-    slot_springs: Vec<u32>,
-    /// Per slot, `Σ wₐ w_b` over the hinges coupling the row and column
-    /// particles, 1/m² (the bending matrix is this times the rigidity, ⊗ I).
+    /// Pattern of `A`: full blocks on the diagonal and where springs join two
+    /// particles, multiples of the identity where only hinges do.
+    pub pattern: SystemPattern,
+    /// Row of each full block.
+    block_row: Vec<u32>,
+    /// Per full block, the start of its entries in `block_springs`.
+    block_spring_start: Vec<usize>,
+    /// Springs contributing to each full block, as `2·spring + end`: for a
+    /// diagonal block, `end` says which end of the spring the row's particle is.
+    block_springs: Vec<u32>,
+    /// Per full block, its `bend_coupling`, 1/m².
+    block_bend_coupling: Vec<f64>,
+    /// Per slot of `pattern.all`, `Σ wₐ w_b` over the hinges coupling the row
+    /// and column particles, 1/m² (the bending matrix is this times the
+    /// rigidity, ⊗ I).
     pub bend_coupling: Vec<f64>,
 }
 
@@ -95,43 +99,50 @@ impl SystemLayout {
         let n = cloth.vertex_count();
         let hinge_pairs =
             cloth.hinge_vertices.iter().flat_map(|h| (0..4).flat_map(move |a| (a + 1..4).map(move |b| [h[a], h[b]])));
-        let pattern = BlockPattern::new(n, cloth.spring_ends.iter().copied().chain(hinge_pairs));
+        let all = BlockPattern::new(n, cloth.spring_ends.iter().copied().chain(hinge_pairs));
 
-        let mut per_slot: Vec<Vec<u32>> = vec![Vec::new(); pattern.stored_blocks()];
-        for (s, &[a, b]) in cloth.spring_ends.iter().enumerate() {
-            let (a, b) = (a as usize, b as usize);
-            let code = |end: u32| 2 * s as u32 + end;
-            per_slot[pattern.diagonal(a)].push(code(0));
-            per_slot[pattern.diagonal(b)].push(code(1));
-            for (row, col) in [(a, b), (b, a)] {
-                if let Some(slot) = pattern.slot(row, col) {
-                    per_slot[slot].push(code(0));
-                }
-            }
-        }
-        let mut slot_spring_start = Vec::with_capacity(per_slot.len() + 1);
-        slot_spring_start.push(0);
-        for list in &per_slot {
-            slot_spring_start.push(slot_spring_start.last().copied().unwrap_or(0) + list.len());
-        }
-        let slot_springs = per_slot.concat();
-
-        let mut bend_coupling = vec![0.0; pattern.stored_blocks()];
+        let mut bend_coupling = vec![0.0; all.stored_blocks()];
         for (ids, w) in cloth.hinge_vertices.iter().zip(&cloth.hinge_weights) {
             for a in 0..4 {
                 for b in 0..4 {
-                    if let Some(slot) = pattern.slot(ids[a] as usize, ids[b] as usize) {
+                    if let Some(slot) = all.slot(ids[a] as usize, ids[b] as usize) {
                         bend_coupling[slot] += w[a] * w[b];
                     }
                 }
             }
         }
-        let slot_row = (0..n).flat_map(|i| pattern.row(i).map(move |_| i as u32)).collect();
-        SystemLayout { pattern, slot_row, slot_spring_start, slot_springs, bend_coupling }
+        let pattern = SystemPattern::new(all, &cloth.spring_ends, |slot| bend_coupling[slot]);
+        let blocks = &pattern.blocks;
+
+        let mut per_block: Vec<Vec<u32>> = vec![Vec::new(); blocks.stored_blocks()];
+        for (s, &[a, b]) in cloth.spring_ends.iter().enumerate() {
+            let (a, b) = (a as usize, b as usize);
+            let code = |end: u32| 2 * s as u32 + end;
+            per_block[blocks.diagonal(a)].push(code(0));
+            per_block[blocks.diagonal(b)].push(code(1));
+            for (row, col) in [(a, b), (b, a)] {
+                if let Some(block) = blocks.slot(row, col) {
+                    per_block[block].push(code(0));
+                }
+            }
+        }
+        let mut block_spring_start = Vec::with_capacity(per_block.len() + 1);
+        block_spring_start.push(0);
+        for list in &per_block {
+            block_spring_start.push(block_spring_start.last().copied().unwrap_or(0) + list.len());
+        }
+        let block_springs = per_block.concat();
+        let block_row = (0..n).flat_map(|i| blocks.row(i).map(move |_| i as u32)).collect();
+        let all = &pattern.all;
+        let block_bend_coupling = (0..n)
+            .flat_map(|i| blocks.row(i).map(move |b| (i, blocks.column(b))))
+            .map(|(i, j)| all.slot(i, j).map_or(0.0, |slot| bend_coupling[slot]))
+            .collect();
+        SystemLayout { pattern, block_row, block_spring_start, block_springs, block_bend_coupling, bend_coupling }
     }
 
-    fn springs_of_slot(&self, slot: usize) -> &[u32] {
-        &self.slot_springs[self.slot_spring_start[slot]..self.slot_spring_start[slot + 1]]
+    fn springs_of_block(&self, block: usize) -> &[u32] {
+        &self.block_springs[self.block_spring_start[block]..self.block_spring_start[block + 1]]
     }
 }
 
@@ -139,12 +150,22 @@ impl SystemLayout {
 /// spring's block and force term.
 #[derive(Clone, Debug, Default)]
 pub struct SystemBuffers {
-    /// Block values of `A`, aligned with the layout's pattern.
+    /// The full blocks of `A`, aligned with the layout's `pattern.blocks`.
     pub matrix: Vec<Matrix3<f64>>,
+    /// Each row's scale of its isotropic (hinge-only) blocks: `h² k_b + h c_b`
+    /// of its particle, N/m·m² (times a coupling, kg).
+    pub isotropic_scale: Vec<f64>,
     /// Right-hand side `b`, N·s.
     pub rhs: Vec<Vector3<f64>>,
     spring_block: Vec<Matrix3<f64>>,
     spring_term: Vec<Vector3<f64>>,
+}
+
+impl SystemBuffers {
+    /// The assembled `A`, on the layout's pattern.
+    pub fn system_matrix<'a>(&'a self, layout: &'a SystemLayout) -> SystemMatrix<'a> {
+        SystemMatrix { pattern: &layout.pattern, blocks: &self.matrix, isotropic_scale: &self.isotropic_scale }
+    }
 }
 
 /// The state and step an assembly is for.
@@ -185,36 +206,38 @@ pub fn assemble(
     input: &AssemblyInput,
     out: &mut SystemBuffers,
 ) {
-    let pattern = &layout.pattern;
+    let (blocks, all) = (&layout.pattern.blocks, &layout.pattern.all);
     let h = input.h;
     let bend_scale = |i: usize| h * h * particles.bend_stiffness[i] + h * particles.bend_damping[i];
-    out.matrix.resize(pattern.stored_blocks(), Matrix3::zeros());
-    out.rhs.resize(pattern.rows(), Vector3::zeros());
-    let SystemBuffers { matrix, rhs, spring_block, spring_term } = out;
+    out.matrix.resize(blocks.stored_blocks(), Matrix3::zeros());
+    out.isotropic_scale.resize(all.rows(), 0.0);
+    out.rhs.resize(all.rows(), Vector3::zeros());
+    let SystemBuffers { matrix, isotropic_scale, rhs, spring_block, spring_term } = out;
 
-    matrix.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(slot, block)| {
-        let i = layout.slot_row[slot] as usize;
+    matrix.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(block, value)| {
+        let i = layout.block_row[block] as usize;
         let springs: Matrix3<f64> =
-            layout.springs_of_slot(slot).iter().map(|&code| spring_block[(code / 2) as usize]).sum();
-        let bend = Matrix3::identity() * (bend_scale(i) * layout.bend_coupling[slot]);
-        *block = if slot == pattern.diagonal(i) {
+            layout.springs_of_block(block).iter().map(|&code| spring_block[(code / 2) as usize]).sum();
+        let bend = Matrix3::identity() * (bend_scale(i) * layout.block_bend_coupling[block]);
+        *value = if block == blocks.diagonal(i) {
             let (m, air) = (particles.mass[i], particles.air_damping[i]);
             Matrix3::identity() * (m * (1.0 + h * air)) + springs + bend
         } else {
             bend - springs
         };
     });
+    isotropic_scale.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(i, scale)| *scale = bend_scale(i));
 
     rhs.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(i, bi)| {
         let (m, air) = (particles.mass[i], particles.air_damping[i]);
         let (kb, cb) = (particles.bend_stiffness[i], particles.bend_damping[i]);
         let mut force = particles.gravity[i] * m - input.v[i] * (air * m);
-        for &code in layout.springs_of_slot(pattern.diagonal(i)) {
+        for &code in layout.springs_of_block(blocks.diagonal(i)) {
             let term = spring_term[(code / 2) as usize];
             force += if code % 2 == 0 { term } else { -term };
         }
-        let qx = pattern.scalar_row_product(&layout.bend_coupling, i, input.x);
-        let qv = pattern.scalar_row_product(&layout.bend_coupling, i, input.v);
+        let qx = all.scalar_row_product(&layout.bend_coupling, i, input.x);
+        let qv = all.scalar_row_product(&layout.bend_coupling, i, input.v);
         force -= qx * kb + qv * (cb + h * kb);
         *bi = force * h;
     });
@@ -232,8 +255,9 @@ pub fn net_forces(
 ) -> Vec<Vector3<f64>> {
     let mut forces: Vec<Vector3<f64>> = (0..x.len())
         .map(|i| {
-            let bend = layout.pattern.scalar_row_product(&layout.bend_coupling, i, x) * particles.bend_stiffness[i]
-                + layout.pattern.scalar_row_product(&layout.bend_coupling, i, v) * particles.bend_damping[i];
+            let all = &layout.pattern.all;
+            let bend = all.scalar_row_product(&layout.bend_coupling, i, x) * particles.bend_stiffness[i]
+                + all.scalar_row_product(&layout.bend_coupling, i, v) * particles.bend_damping[i];
             (particles.gravity[i] - v[i] * particles.air_damping[i]) * particles.mass[i] - bend
         })
         .collect();
@@ -325,8 +349,12 @@ mod tests {
                 for i in 0..n {
                     let mass = if i == j { Vector3::ith(axis, particles.mass[i]) } else { Vector3::zeros() };
                     let expected = mass - dfdv[i] * h - dfdx[i] * (h * h);
-                    let got =
-                        layout.pattern.slot(i, j).map_or(Vector3::zeros(), |s| buffers.matrix[s].column(axis).into());
+                    let matrix = buffers.system_matrix(&layout);
+                    let got = layout
+                        .pattern
+                        .all
+                        .slot(i, j)
+                        .map_or(Vector3::zeros(), |s| matrix.block(i, s).column(axis).into());
                     assert!((got - expected).norm() < 1e-6, "A[{i},{j}] col {axis}: {got} vs {expected}");
                 }
             }

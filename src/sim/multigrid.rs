@@ -43,7 +43,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, SMatrix, SVector, Vector3, Ve
 
 use super::parallel::{self, for_each_indexed as each};
 use super::pcg::Constraint;
-use super::sparse::BlockPattern;
+use super::sparse::{BlockPattern, SystemMatrix};
 
 /// Stop coarsening at this many nodes; the last level is solved directly.
 const COARSEST_NODES: usize = 40;
@@ -373,14 +373,15 @@ impl Multigrid {
         std::iter::once(self.fine.rows()).chain(self.transfers.iter().map(|t| t.coarse.rows())).collect()
     }
 
-    /// Prepares the hierarchy for the fine matrix `a` with `constraints`, the
-    /// particles being at `positions` (m).
-    pub fn prepare(&mut self, a: &[Matrix3<f64>], constraints: &[Constraint], positions: &[Vector3<f64>]) {
+    /// Prepares the hierarchy for the fine matrix `a` (on the pattern the
+    /// hierarchy was built for) with `constraints`, the particles being at
+    /// `positions` (m).
+    pub fn prepare(&mut self, a: SystemMatrix, constraints: &[Constraint], positions: &[Vector3<f64>]) {
         self.points.clear();
         self.points.extend_from_slice(positions);
         self.projectors.clear();
         self.projectors.extend(constraints.iter().map(|c| c.filter_matrix()));
-        filtered_matrix(&self.fine, a, &self.projectors, &mut self.fine_level.matrix);
+        filtered_matrix(a, &self.projectors, &mut self.fine_level.matrix);
         self.fine_level.prepare(&self.fine, |m| m.try_inverse());
         for k in 0..self.transfers.len() {
             let transfer = &self.transfers[k];
@@ -518,14 +519,9 @@ fn aggregate(graph: &Csr<u32>) -> (Vec<u32>, usize) {
 
 /// `Â = S A S + α (I − S)` for each row's filter `S` (`projectors`), with `α`
 /// a third of the row's diagonal trace.
-fn filtered_matrix(
-    pattern: &BlockPattern,
-    a: &[Matrix3<f64>],
-    projectors: &[Matrix3<f64>],
-    out: &mut Vec<Matrix3<f64>>,
-) {
-    out.clear();
-    out.extend_from_slice(a);
+fn filtered_matrix(a: SystemMatrix, projectors: &[Matrix3<f64>], out: &mut Vec<Matrix3<f64>>) {
+    let pattern = &a.pattern.all;
+    a.all_blocks(out);
     for (i, &si) in projectors.iter().enumerate() {
         if si == Matrix3::identity() {
             continue;
@@ -537,7 +533,7 @@ fn filtered_matrix(
                 out[back] *= si;
             }
         }
-        out[diagonal] += (Matrix3::identity() - si) * (a[diagonal].trace() / 3.0);
+        out[diagonal] += (Matrix3::identity() - si) * (a.diagonal(i).trace() / 3.0);
     }
 }
 
@@ -577,6 +573,7 @@ fn residual_into<const D: usize>(
 mod tests {
     use super::*;
     use crate::sim::pcg::{FilteredSystem, PcgSettings, PcgWorkspace, PreconditionerKind, Preconditioning, solve};
+    use crate::sim::sparse::SystemPattern;
     use crate::sim::test_grid::quad_grid as grid;
 
     /// `I + Σ_springs B` with each spring's block `B` from `block(direction, is_diagonal)`.
@@ -618,10 +615,12 @@ mod tests {
         let settings =
             PcgSettings { tolerance: 1e-6, max_iterations: 5000, preconditioner: PreconditionerKind::Multigrid };
         let mut multigrid = Multigrid::new(pattern, edges);
-        multigrid.prepare(a, &constraints, points);
+        let whole = SystemPattern::blocks_only(pattern.clone());
+        let matrix = SystemMatrix { pattern: &whole, blocks: a, isotropic_scale: &[] };
+        multigrid.prepare(matrix, &constraints, points);
         let run = |p: Preconditioning| {
             let mut x = vec![Vector3::zeros(); n];
-            let system = FilteredSystem { pattern, a, b: &b, typical: &b, constraints: &constraints, positions: &[] };
+            let system = FilteredSystem { matrix, b: &b, typical: &b, constraints: &constraints, positions: &[] };
             let report = solve(system, &mut x, settings, p, &mut PcgWorkspace::default());
             assert!(report.converged, "{report:?}");
             (report.iterations, x)

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use super::cholesky::{CholeskyError, FactorState, LaggedCholesky, RESOLVE_BUDGET, STALE_BUDGET};
 use super::multigrid::Multigrid;
 use super::parallel::{self, CHUNK, for_each_indexed as par_each};
-use super::sparse::BlockPattern;
+use super::sparse::{BlockPattern, SystemMatrix};
 
 /// What the solve may change in one particle's row.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -155,11 +155,11 @@ impl Preconditioner {
         ws: &mut PcgWorkspace,
         change: SystemChange,
     ) -> (PcgReport, u32) {
-        let FilteredSystem { pattern, a, constraints, .. } = system;
+        let FilteredSystem { matrix, constraints, .. } = system;
         match self {
             Preconditioner::BlockJacobi => (solve(system, x, settings, Preconditioning::BlockJacobi, ws), 0),
             Preconditioner::Multigrid(multigrid) => {
-                multigrid.prepare(a, constraints, system.positions);
+                multigrid.prepare(matrix, constraints, system.positions);
                 (solve(system, x, settings, Preconditioning::Multigrid(multigrid), ws), 0)
             }
             Preconditioner::Cholesky(cholesky) => {
@@ -179,7 +179,7 @@ impl Preconditioner {
                     }
                     spent = report.iterations;
                 }
-                let factored = cholesky.refactor(pattern, a, constraints).is_ok();
+                let factored = cholesky.refactor(matrix, constraints).is_ok();
                 let preconditioning =
                     if factored { Preconditioning::Cholesky(cholesky) } else { Preconditioning::BlockJacobi };
                 let report = solve(system, x, settings, preconditioning, ws);
@@ -206,10 +206,8 @@ pub enum SystemChange {
 /// constraints leave free.
 #[derive(Clone, Copy)]
 pub struct FilteredSystem<'a> {
-    /// Block pattern of `A`.
-    pub pattern: &'a BlockPattern,
-    /// Block values of `A`.
-    pub a: &'a [Matrix3<f64>],
+    /// The matrix `A`.
+    pub matrix: SystemMatrix<'a>,
     /// Right-hand side.
     pub b: &'a [Vector3<f64>],
     /// A right-hand side of the size that matters, for the stopping test (see
@@ -279,11 +277,11 @@ pub fn solve(
     mut preconditioning: Preconditioning,
     ws: &mut PcgWorkspace,
 ) -> PcgReport {
-    let FilteredSystem { pattern, a, b, typical, constraints, .. } = system;
+    let FilteredSystem { matrix, b, typical, constraints, .. } = system;
     let n = b.len();
     ws.resize(n);
     ws.inverse_diagonal.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(i, p)| {
-        let block = a[pattern.diagonal(i)];
+        let block = *matrix.diagonal(i);
         *p = block.try_inverse().unwrap_or_else(|| Matrix3::from_diagonal(&block.diagonal().map(|d| 1.0 / d)));
     });
     let filter = |i: usize, v: Vector3<f64>| constraints[i].filter(v);
@@ -307,7 +305,7 @@ pub fn solve(
         (residual, direction),
         partials,
         |i, r, cold_r| {
-            let (product, cold_product) = pattern.row_products(a, guesses, i);
+            let (product, cold_product) = matrix.row_products(guesses, i);
             (*r, *cold_r) = (filter(i, b[i] - product), filter(i, b[i] - cold_product));
         },
         (norm_term, norm_term),
@@ -327,7 +325,7 @@ pub fn solve(
         let curvature = parallel::set_and_sum(
             product,
             partials,
-            |i, q| *q = filter(i, pattern.row_product(a, direction, i)),
+            |i, q| *q = filter(i, matrix.row_product(direction, i)),
             |i, q| direction[i].dot(q),
         );
         if curvature <= 0.0 {
@@ -394,6 +392,7 @@ fn precondition(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::sparse::SystemPattern;
     use nalgebra::{DMatrix, DVector};
 
     use crate::sim::test_grid::ring_positions;
@@ -438,6 +437,11 @@ mod tests {
         m
     }
 
+    /// The matrix of full blocks `a` on `pattern`.
+    fn blocks<'a>(pattern: &'a SystemPattern, a: &'a [Matrix3<f64>]) -> SystemMatrix<'a> {
+        SystemMatrix { pattern, blocks: a, isotropic_scale: &[] }
+    }
+
     /// A block-Jacobi solve of `A x = b` with every row free.
     fn solve_free(
         pattern: &BlockPattern,
@@ -447,7 +451,9 @@ mod tests {
         settings: PcgSettings,
     ) -> PcgReport {
         let (typical, free) = (vec![Vector3::zeros(); b.len()], vec![Constraint::Free; b.len()]);
-        let system = FilteredSystem { pattern, a, b, typical: &typical, constraints: &free, positions: &[] };
+        let whole = SystemPattern::blocks_only(pattern.clone());
+        let system =
+            FilteredSystem { matrix: blocks(&whole, a), b, typical: &typical, constraints: &free, positions: &[] };
         solve(system, x, settings, Preconditioning::BlockJacobi, &mut PcgWorkspace::default())
     }
 
@@ -480,10 +486,10 @@ mod tests {
         let mut x = vec![Vector3::zeros(); n];
         x[3] = prescribed;
         x[9] = normal * 0.5;
+        let whole = SystemPattern::blocks_only(pattern);
         solve(
             FilteredSystem {
-                pattern: &pattern,
-                a: &a,
+                matrix: blocks(&whole, &a),
                 b: &b,
                 typical: &vec![Vector3::zeros(); n],
                 constraints: &constraints,
@@ -499,7 +505,7 @@ mod tests {
         assert!((x[9].dot(&normal) - 0.5).abs() < 1e-12, "the normal component is kept");
         // Every row satisfies its equation in the directions it was free in.
         let mut ax = vec![Vector3::zeros(); n];
-        pattern.multiply(&a, &x, &mut ax);
+        blocks(&whole, &a).multiply(&x, &mut ax);
         for i in 0..n {
             assert!(constraints[i].filter(ax[i] - b[i]).norm() < 1e-8, "row {i}");
         }
@@ -529,8 +535,9 @@ mod tests {
             PcgSettings { tolerance: 1e-3, max_iterations: 1000, preconditioner: PreconditionerKind::BlockJacobi };
         let mut x = vec![Vector3::zeros(); 40];
         let free = [Constraint::Free; 40];
+        let whole = SystemPattern::blocks_only(pattern);
         let report = solve(
-            FilteredSystem { pattern: &pattern, a: &a, b: &tiny, typical: &b, constraints: &free, positions: &[] },
+            FilteredSystem { matrix: blocks(&whole, &a), b: &tiny, typical: &b, constraints: &free, positions: &[] },
             &mut x,
             settings,
             Preconditioning::BlockJacobi,
@@ -552,10 +559,11 @@ mod tests {
         let free = vec![Constraint::Free; n];
         let mut preconditioner =
             Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n), &ring_positions(n)).unwrap();
+        let whole = SystemPattern::blocks_only(pattern.clone());
         let mut run = |a: &[Matrix3<f64>]| {
             let mut x = vec![Vector3::zeros(); n];
             let system =
-                FilteredSystem { pattern: &pattern, a, b: &b, typical: &b, constraints: &free, positions: &[] };
+                FilteredSystem { matrix: blocks(&whole, a), b: &b, typical: &b, constraints: &free, positions: &[] };
             let (report, factors) =
                 preconditioner.solve(system, &mut x, settings, &mut PcgWorkspace::default(), SystemChange::Matrix);
             let rhs = DVector::from_iterator(3 * n, b.iter().flat_map(|v| v.iter().copied()));
@@ -597,8 +605,14 @@ mod tests {
             PcgSettings { tolerance: 1e-8, max_iterations: 1000, preconditioner: PreconditionerKind::Cholesky };
         let preconditioner =
             || Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n), &ring_positions(n)).unwrap();
-        let system =
-            |a, constraints| FilteredSystem { pattern: &pattern, a, b: &b, typical: &b, constraints, positions: &[] };
+        let whole = SystemPattern::blocks_only(pattern.clone());
+        let system = |a, constraints| FilteredSystem {
+            matrix: blocks(&whole, a),
+            b: &b,
+            typical: &b,
+            constraints,
+            positions: &[],
+        };
         let ws = &mut PcgWorkspace::default();
         let mut kept = preconditioner();
         let mut x = vec![Vector3::zeros(); n];
@@ -643,8 +657,9 @@ mod tests {
         let mut preconditioner =
             Preconditioner::new(settings.preconditioner, &pattern, &ring_pairs(n), &ring_positions(n)).unwrap();
         let mut x = vec![Vector3::zeros(); n];
+        let whole = SystemPattern::blocks_only(pattern);
         let system =
-            FilteredSystem { pattern: &pattern, a: &a, b: &b, typical: &b, constraints: &free, positions: &[] };
+            FilteredSystem { matrix: blocks(&whole, &a), b: &b, typical: &b, constraints: &free, positions: &[] };
         let (report, _) =
             preconditioner.solve(system, &mut x, settings, &mut PcgWorkspace::default(), SystemChange::Matrix);
         assert!(report.converged, "{report:?}");

@@ -524,7 +524,7 @@ impl Simulator {
         let layout = SystemLayout::new(&cloth);
         let preconditioner = Preconditioner::new(
             settings.solver.preconditioner,
-            &layout.pattern,
+            &layout.pattern.all,
             &cloth.spring_ends,
             &cloth.rest_positions,
         )?;
@@ -893,7 +893,7 @@ impl Simulator {
         report.timings.springs = lap(&mut clock);
         assemble(&self.layout, &self.particles, &input, &mut self.ws.system);
         if let Some(repulsion) = &self.ws.repulsion {
-            repulsion.add_to(&self.ws.resting, &self.layout.pattern, &mut self.ws.system);
+            repulsion.add_to(&self.ws.resting, &self.layout.pattern.blocks, &mut self.ws.system);
         }
         report.timings.assembly = lap(&mut clock);
 
@@ -904,8 +904,7 @@ impl Simulator {
         self.ws.weight_impulse.extend((0..n).map(|i| gravity[i] * (mass[i] * h)));
         loop {
             let system = FilteredSystem {
-                pattern: &self.layout.pattern,
-                a: &self.ws.system.matrix,
+                matrix: self.ws.system.system_matrix(&self.layout),
                 b: &self.ws.system.rhs,
                 typical: &self.ws.weight_impulse,
                 constraints: &self.ws.constraints,
@@ -975,7 +974,7 @@ impl Simulator {
             if let Some(surface) = &self.ws.surface_contacts[i] {
                 let mu = self.colliders[surface.collider as usize].friction.unwrap_or(self.surfaces[i].friction);
                 let (damping, _) = surface.friction_damping(&self.v[i], self.normal_force[i], mu);
-                self.ws.system.matrix[self.layout.pattern.diagonal(i)] += damping * h;
+                self.ws.system.matrix[self.layout.pattern.blocks.diagonal(i)] += damping * h;
             }
         }
         for k in 0..self.pins.len() {
@@ -1028,7 +1027,7 @@ impl Simulator {
         let any_contact = ws.surface_contacts.iter().any(Option::is_some);
         if any_contact {
             ws.residual.resize(self.x.len(), Vector3::zeros());
-            self.layout.pattern.multiply(&ws.system.matrix, &ws.velocity_change, &mut ws.residual);
+            ws.system.system_matrix(&self.layout).multiply(&ws.velocity_change, &mut ws.residual);
         }
         let (contacts, product, rhs) = (&ws.surface_contacts, &ws.residual, &ws.system.rhs);
         self.normal_force.par_iter_mut().zip(self.released.par_iter_mut()).enumerate().with_min_len(CHUNK).for_each(
