@@ -566,12 +566,8 @@ impl LaggedCholesky {
         parallel::for_each_indexed(&mut self.bounds, |b, bound| {
             let block = dropped.blocks[b];
             let (row, column) = (&constraints[block.row as usize], &constraints[block.column as usize]);
-            let (i, slot) = (block.row as usize, block.slot as usize);
-            *bound = match matrix.isotropic(i, slot) {
-                // The bound of `c I` unfiltered, |c| (exact, and the same to the bit).
-                Some(c) if *row == Constraint::Free && *column == Constraint::Free => c.abs(),
-                _ => spectral_norm_bound(&filtered_block(row, &matrix.block(i, slot), column, false)),
-            };
+            let value = matrix.block(block.row as usize, block.slot as usize);
+            *bound = spectral_norm_bound(&filtered_block(row, &value, column, false));
         });
         let bounds = &self.bounds;
         parallel::for_each_indexed(&mut self.compensation, |i, sum| {

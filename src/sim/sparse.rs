@@ -165,15 +165,6 @@ impl SystemMatrix<'_> {
         }
     }
 
-    /// The multiple of the identity that slot `slot` of `pattern.all` (in
-    /// row `row`) holds, if it is an isotropic slot.
-    pub fn isotropic(&self, row: usize, slot: usize) -> Option<f64> {
-        match self.pattern.value_of(slot) {
-            SlotValue::Block(_) => None,
-            SlotValue::Isotropic(w) => Some(self.isotropic_scale[row] * w),
-        }
-    }
-
     /// Every block of `pattern.all`, in slot order, into `out`.
     pub fn all_blocks(&self, out: &mut Vec<Matrix3<f64>>) {
         let all = &self.pattern.all;
@@ -198,13 +189,7 @@ impl SystemMatrix<'_> {
         let pattern = &self.pattern.all;
         pattern.row(i).fold((Vector3::zeros(), Vector3::zeros()), |(ax, ay), s| {
             let j = pattern.column(s);
-            match self.pattern.value_of(s) {
-                SlotValue::Block(b) => (ax + self.blocks[b] * x[j], ay + self.blocks[b] * y[j]),
-                SlotValue::Isotropic(w) => {
-                    let c = self.isotropic_scale[i] * w;
-                    (ax + x[j] * c, ay + y[j] * c)
-                }
-            }
+            (ax + self.term(i, s, &x[j]), ay + self.term(i, s, &y[j]))
         })
     }
 

@@ -20,6 +20,13 @@ pub(super) fn share_a_vertex(a: &[u32; 3], b: &[u32; 3]) -> bool {
     a.iter().any(|v| b.contains(v))
 }
 
+/// The filter the hierarchy's traversals pass: whether two of `triangles`
+/// (by index) have no corner in common, so that their pair is the
+/// traversal's to list and not the adjacent triangles' lists'.
+pub(super) fn apart(triangles: &[[u32; 3]]) -> impl Fn(u32, u32) -> bool + Sync + Copy + '_ {
+    |a, b| !share_a_vertex(&triangles[a as usize], &triangles[b as usize])
+}
+
 /// Where two triangles that share a vertex meet, by corner index: corner
 /// `k` of a triangle, and its edge `k`, which runs from corner `k` to
 /// corner `k + 1` (mod 3).

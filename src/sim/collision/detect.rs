@@ -8,7 +8,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::adjacent::{AdjacentTriangles, Sharing, share_a_vertex};
+use super::adjacent::{self, AdjacentTriangles, Sharing};
 use super::bvh::{Box3, SweptBvh};
 use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_within};
 use super::features::Ownership;
@@ -286,7 +286,7 @@ impl CollisionPipeline {
         let near = if sharp { boxes.fold(Box3::empty(), |all, (_, b)| all.union(b)) } else { Box3::empty() };
         if cloth_pairs {
             let triangles = &self.triangles;
-            let apart = |a: u32, b: u32| !share_a_vertex(&triangles[a as usize], &triangles[b as usize]);
+            let apart = adjacent::apart(triangles);
             match moved {
                 true => {
                     let listed = ws.partners.valid().then_some(&ws.partners);
@@ -1004,6 +1004,7 @@ impl Narrow<'_> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::adjacent::share_a_vertex;
     use super::super::obstacles::ClothScale;
     use super::super::{ClothState, CollisionSettings};
     use super::*;

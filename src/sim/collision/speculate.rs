@@ -18,7 +18,7 @@
 
 use nalgebra::Vector3;
 
-use super::adjacent::share_a_vertex;
+use super::adjacent;
 use super::bvh::{Box3, SweptBvh};
 use super::detect::moved_pairs;
 use super::pair_sort::merge_sorted;
@@ -68,7 +68,7 @@ impl CollisionPipeline {
         ws.speculative_pairs.clear();
         if cloth_pairs {
             let triangles = &self.triangles;
-            let apart = |a: u32, b: u32| !share_a_vertex(&triangles[a as usize], &triangles[b as usize]);
+            let apart = adjacent::apart(triangles);
             bvh.self_pairs(apart, &mut ws.speculative_pairs);
         }
         ws.speculative_mesh_pairs.clear();
@@ -126,7 +126,7 @@ pub(super) fn leaf_margin<'a>(
 pub(super) fn confirmed_self_pairs(bvh: &SweptBvh, triangles: &[[u32; 3]], ws: &mut Workspace) {
     let (boxes, escaped) = (&ws.triangle_box, &ws.moved_triangle);
     let scratch = (&mut ws.query_chunks, &mut ws.pair_sorter);
-    let apart = |a: u32, b: u32| !share_a_vertex(&triangles[a as usize], &triangles[b as usize]);
+    let apart = adjacent::apart(triangles);
     moved_pairs(bvh, (boxes, escaped, &ws.moved_list), None, apart, scratch, &mut ws.escaped_pairs);
     let kept = ws.speculative_pairs.iter().copied().filter(|&(a, b)| boxes[a as usize].overlaps(&boxes[b as usize]));
     merge_sorted(kept, &ws.escaped_pairs, &mut ws.pairs);
