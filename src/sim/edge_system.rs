@@ -281,36 +281,26 @@ impl ActivePattern {
 
 /// The `edges` (ascending, `is_active` per edge) sorted by their rank in
 /// `pattern`'s elimination order: the `previous` analysis's order without
-/// the edges that left, merged with those that joined.
+/// the edges that left, then those that joined, sorted together (a stable
+/// sort takes the first as one sorted run and merges the few others in).
 fn elimination_order(
     pattern: &Pattern,
     edges: &[u32],
     is_active: &[bool],
     previous: Option<&ActivePattern>,
 ) -> Vec<u32> {
-    let rank = |e: &u32| pattern.rank[*e as usize];
     let Some(previous) = previous else {
         let mut order = edges.to_vec();
-        order.sort_unstable_by_key(rank);
+        order.sort_unstable_by_key(|&e| pattern.rank[e as usize]);
         return order;
     };
+    let mut order: Vec<u32> = previous.order.iter().copied().filter(|&e| is_active[e as usize]).collect();
     let mut earlier = previous.edges.iter().peekable();
-    let mut is_new = |e: &u32| {
+    order.extend(edges.iter().filter(|&e| {
         while earlier.next_if(|&p| p < e).is_some() {}
         earlier.peek() != Some(&e)
-    };
-    let mut joined: Vec<u32> = edges.iter().copied().filter(|e| is_new(e)).collect();
-    joined.sort_unstable_by_key(rank);
-    let mut kept = previous.order.iter().copied().filter(|&e| is_active[e as usize]).peekable();
-    let mut joined = joined.into_iter().peekable();
-    let mut order = Vec::with_capacity(edges.len());
-    while let Some(next) = match (kept.peek(), joined.peek()) {
-        (Some(k), Some(j)) if rank(k) < rank(j) => kept.next(),
-        (Some(_), None) => kept.next(),
-        _ => joined.next(),
-    } {
-        order.push(next);
-    }
+    }));
+    order.sort_by_key(|&e| pattern.rank[e as usize]);
     order
 }
 
