@@ -216,6 +216,9 @@ struct Workspace {
     gathered: Vec<Vector3<f64>>,
     /// Positions and velocities kept by [`StrainLimits::project_if_met`].
     saved: Vec<(Vector3<f64>, Vector3<f64>)>,
+    /// The touched particles' positions and velocities before a Newton
+    /// step's line search.
+    before_step: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Whether this projection has a factor of `J W Jᵀ` to precondition with.
     factored: bool,
     /// Particles whose edges are to be linearised again: those whose holds
@@ -509,17 +512,7 @@ impl StrainLimits {
             let constraints: &[Constraint] = if holding { held } else { state.constraints };
             report.newton_iterations += 1;
             self.gather_active(Compact::Multiplier);
-            let mut step = 1.0;
-            let mut after = before;
-            for _ in 0..BACKTRACKS {
-                self.move_touched(-step, constraints, state);
-                after = self.ws.linearised.squared_excess();
-                if after < before {
-                    break;
-                }
-                self.move_touched(step, constraints, state);
-                step *= 0.5;
-            }
+            let after = self.line_search(before, constraints, state);
             stalled = if after > STALL_RATIO * before { stalled + 1 } else { 0 };
             latest = after;
         }
@@ -798,6 +791,36 @@ impl StrainLimits {
         }
     }
 
+    /// Moves the touched particles along the Newton step `−W gathered` by
+    /// the longest of 1, ½, ¼, … ([`BACKTRACKS`] halvings) that lowers the
+    /// total squared excess below `before`; returns the excess it leaves.
+    /// After a try that does not, the particles are put back exactly where
+    /// they were: a step from a nearly singular multiplier system can be
+    /// 10¹⁷ m long, and subtracting it again would leave metres of
+    /// round-off (a strain correction on `pillars` left an edge at
+    /// 13,000 % that way).
+    fn line_search(&mut self, before: f64, constraints: &[Constraint], state: &mut ProjectedState) -> f64 {
+        let ws = &mut self.ws;
+        ws.before_step.clear();
+        ws.before_step.extend(ws.touched.iter().map(|&v| (state.x[v as usize], state.v[v as usize])));
+        let mut step = 1.0;
+        for _ in 0..BACKTRACKS {
+            self.move_touched(-step, constraints, state);
+            let after = self.ws.linearised.squared_excess();
+            if after < before {
+                return after;
+            }
+            let ws = &mut self.ws;
+            for (&v, &(x, velocity)) in ws.touched.iter().zip(&ws.before_step) {
+                (state.x[v as usize], state.v[v as usize]) = (x, velocity);
+            }
+            let particles = Particles { x: state.x, constraints, mass: state.mass };
+            ws.linearised.update_at(&ws.touched, &self.edges, particles);
+            step *= 0.5;
+        }
+        before
+    }
+
     /// `x += scale · W gathered`, `v += scale · W gathered / h` on the
     /// touched particles, and linearises their edges again.
     fn move_touched(&mut self, scale: f64, constraints: &[Constraint], state: &mut ProjectedState) {
@@ -927,6 +950,33 @@ mod tests {
     ) -> ProjectionReport {
         let mut limits = StrainLimits::new(cloth, method).expect("cotton has a limit");
         limits.project(ProjectedState { x, v, constraints, mass: &cloth.mass, h: 0.01 })
+    }
+
+    /// A Newton step that every halving still makes worse (multipliers of a
+    /// nearly singular system: a step of 10¹⁹ m) leaves the particles
+    /// exactly where they were, to the bit, and the excess as it was:
+    /// moving them back by the same step would not (round-off of the step's
+    /// size, metres).
+    #[test]
+    fn a_line_search_that_finds_no_shorter_step_puts_the_particles_back_exactly() {
+        let (cloth, start) = stretched_grid(4, 1.1);
+        let constraints = vec![Constraint::Free; start.len()];
+        let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
+        limits.linearise_all(&start, &constraints, &cloth.mass);
+        let before = limits.ws.linearised.squared_excess();
+        let ws = &mut limits.ws;
+        ws.touched = (0..start.len() as u32).collect();
+        ws.gathered = (0..start.len()).map(|i| Vector3::new(1.0, (i % 3) as f64, -(i as f64)) * 1e15).collect();
+        let (mut x, mut v) = (start.clone(), vec![Vector3::new(0.0, -1.0, 0.0); start.len()]);
+        let v_start = v.clone();
+        let mut state = ProjectedState { x: &mut x, v: &mut v, constraints: &constraints, mass: &cloth.mass, h: 0.01 };
+        let after = limits.line_search(before, &constraints, &mut state);
+        assert_eq!(after, before);
+        assert_eq!(x, start, "positions restored to the bit");
+        assert_eq!(v, v_start, "velocities restored to the bit");
+        assert_eq!(limits.ws.linearised.squared_excess(), before, "and linearised where they are");
+        let step = limits.ws.gathered[1] / cloth.mass[1];
+        assert!((start[1] + step - step - start[1]).norm() > 1e-3, "subtracting the step back would not restore");
     }
 
     #[test]
