@@ -798,7 +798,7 @@ impl StrainLimits {
     /// they were: a step from a nearly singular multiplier system can be
     /// 10¹⁷ m long, and subtracting it again would leave metres of
     /// round-off (a strain correction on `pillars` left an edge at
-    /// 13,000 % that way).
+    /// about 13,400 % that way).
     fn line_search(&mut self, before: f64, constraints: &[Constraint], state: &mut ProjectedState) -> f64 {
         let ws = &mut self.ws;
         ws.before_step.clear();
