@@ -116,12 +116,22 @@ fn twist_never_intersects() {
 /// A bed of 3 mm needles: no vertex or edge passes one, and the cloth
 /// pierced between them never passes itself; full resolution (96 × 96), the
 /// size at which a particle moved after the pipeline's last check once left
-/// two triangle pairs crossed for good.
+/// two triangle pairs crossed for good. The cloth rests on the tips without
+/// tearing its mesh apart: held off needles thinner than its edges, its
+/// largest strain is 4.5 % (cotton's limit is 1 %), where each pass's
+/// projection pulling it back round the tips left 190 %.
 #[test]
 fn needles_are_never_passed() {
     let scene = Scene::load(&standard("needles")).unwrap_or_else(|e| panic!("{e}"));
     let records = assert_never_intersects(&scene);
     assert!(records.iter().any(|r| r.triangle_contacts > 0), "the cloth met the needles' tips");
+    let worst = records.iter().max_by(|a, b| a.max_free_strain.total_cmp(&b.max_free_strain)).expect("frames");
+    assert!(
+        worst.max_free_strain < 0.10,
+        "frame {} ends at {:.1} % strain",
+        worst.frame,
+        100.0 * worst.max_free_strain
+    );
 }
 
 /// Friction carries the cloth round with a spinning sphere: after 2 s of

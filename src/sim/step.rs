@@ -72,7 +72,8 @@ const CONTACT_PASSES: u32 = 4;
 /// the 16× reference is unchanged (BENCHMARKS.md, 2026-12-04).
 const RESOLVE_SHIFT: f64 = 1.0;
 
-/// A particle whose pushes off mesh colliders in one pass sum to a normal shorter
+/// A particle whose held pushes in one pass (off mesh colliders and props
+/// thinner than the cloth's edges, [`PassState::pushed_off`]) sum to a normal shorter
 /// than this (unitless: each push counts its unit normal times the particle's
 /// share of the contact) was pushed both ways, and is not held between passes.
 const PUSH_SUM_MIN: f64 = 1e-6;
@@ -434,8 +435,9 @@ struct Workspace {
     /// End positions before a strain projection inside the collision
     /// response, to see which particles it moved.
     before_projection: Vec<Vector3<f64>>,
-    /// The particles the last impulse pass pushed off a mesh collider, with
-    /// the unit normal away from it, for the projection after it.
+    /// The particles the last impulse pass pushed off a mesh collider or a
+    /// thin prop, with the unit normal away from it, for the projection
+    /// after it.
     holds: Vec<(u32, Vector3<f64>)>,
     contacts: Vec<u32>,
     partials: Vec<f64>,

@@ -153,9 +153,11 @@ pub struct PassState<'a> {
     pub moved: &'a [bool],
     /// Per particle, the sum of the normals (weighted by the particle's
     /// share of the contact) along which this pass's impulses pushed it off
-    /// a triangle mesh collider (a body): zero where none did. Pushes off
-    /// analytic colliders' sharp features do not count: the cloth wraps
-    /// around a needle's tip or a table's edge, whose normal turns under it.
+    /// a triangle mesh collider (a body) or the features of an analytic
+    /// collider thinner than the cloth's edges (a needle): zero where none
+    /// did. Pushes off wider analytic colliders' sharp features do not
+    /// count: the cloth wraps round a table's edge, whose normal turns
+    /// under it ([`obstacles::Obstacles::holds`]).
     pub pushed_off: &'a [Vector3<f64>],
     /// The part of the response just run.
     pub stage: ResponseStage,
@@ -628,12 +630,12 @@ impl CollisionPipeline {
             h,
         };
         let n = self.particles.len();
-        let first_surface_point = n + self.obstacles.first_mesh_vertex as usize;
+        let holds = &self.obstacles.holds;
         ws.pushed_off.iter_mut().for_each(|p| *p = Vector3::zeros());
         let pushed_off = &mut ws.pushed_off;
         let mut respond = |c: &Contact| {
             let acted = points.respond(c);
-            if acted && c.nodes.iter().any(|&i| i as usize >= first_surface_point) {
+            if acted && c.nodes.iter().any(|&i| (i as usize).checked_sub(n).is_some_and(|o| holds[o])) {
                 for (&i, &w) in c.nodes.iter().zip(&c.hit.weights) {
                     if (i as usize) < n {
                         pushed_off[i as usize] += c.hit.normal * w;
@@ -1305,7 +1307,8 @@ mod tests {
     /// The hook learns which particles this pass's impulses pushed off a
     /// mesh collider, and which way: a cloth falling through a floor is
     /// pushed up. Pushes off an analytic collider's sharp edge, around which
-    /// the cloth wraps, do not count.
+    /// the cloth wraps, do not count; off a rod thinner than the cloth's
+    /// edges, which the cloth cannot wrap, they do.
     #[test]
     fn the_hook_sees_what_was_pushed_off_a_mesh_and_which_way() {
         let (pushed_off, moved) = first_pass_pushes(&[], &[floor_below()]);
@@ -1321,6 +1324,18 @@ mod tests {
         let (pushed_off, moved) = first_pass_pushes(&[blade], &[]);
         assert!(moved.iter().any(|&m| m), "the blade's edges push the cloth");
         assert!(pushed_off.iter().all(|n| *n == Vector3::zeros()));
+        let rod = Collider {
+            name: "rod".into(),
+            shape: Shape::Box { half_extents: Vector3::new(0.3, 0.004, 0.004) },
+            placement: Placement { rest_pose: Isometry3::translation(-0.25, -0.008, 0.0), motion: None },
+            friction: None,
+        };
+        let (pushed_off, moved) = first_pass_pushes(&[rod], &[]);
+        let held: Vec<usize> = (0..pushed_off.len()).filter(|&i| pushed_off[i] != Vector3::zeros()).collect();
+        assert!(!held.is_empty(), "an 8 mm rod under a 10 mm cloth holds what it pushes");
+        for i in held {
+            assert!(moved[i] && pushed_off[i].y > 0.0, "particle {i} pushed along {}", pushed_off[i]);
+        }
     }
 
     /// PAPER Algorithm 1: owning each feature once finds exactly the contacts
