@@ -1315,21 +1315,17 @@ mod tests {
         for (i, n) in pushed_off.iter().enumerate() {
             assert!(moved[i] && n.normalize().y > 0.99, "particle {i} falls through the floor: {n}");
         }
-        let blade = Collider {
-            name: "blade".into(),
-            shape: Shape::Box { half_extents: Vector3::new(0.3, 0.01, 0.01) },
-            placement: Placement { rest_pose: Isometry3::translation(-0.25, -0.014, 0.0), motion: None },
+        // A bar along X of square section `side` m, its top 4 mm below the cloth.
+        let bar = |side: f64| Collider {
+            name: "bar".into(),
+            shape: Shape::Box { half_extents: Vector3::new(0.3, side / 2.0, side / 2.0) },
+            placement: Placement { rest_pose: Isometry3::translation(-0.25, -0.004 - side / 2.0, 0.0), motion: None },
             friction: None,
         };
-        let (pushed_off, moved) = first_pass_pushes(&[blade], &[]);
+        let (pushed_off, moved) = first_pass_pushes(&[bar(0.02)], &[]);
         assert!(moved.iter().any(|&m| m), "the blade's edges push the cloth");
         assert!(pushed_off.iter().all(|n| *n == Vector3::zeros()));
-        let rod = Collider {
-            name: "rod".into(),
-            shape: Shape::Box { half_extents: Vector3::new(0.3, 0.004, 0.004) },
-            placement: Placement { rest_pose: Isometry3::translation(-0.25, -0.008, 0.0), motion: None },
-            friction: None,
-        };
+        let rod = bar(0.008);
         let (pushed_off, moved) = first_pass_pushes(&[rod], &[]);
         let held: Vec<usize> = (0..pushed_off.len()).filter(|&i| pushed_off[i] != Vector3::zeros()).collect();
         assert!(!held.is_empty(), "an 8 mm rod under a 10 mm cloth holds what it pushes");
