@@ -25,7 +25,8 @@
 //! limit would be held at it, and a cloth at rest would never settle.
 //!
 //! Between collision passes the projection also must not undo what the
-//! pass's impulses did: a particle pushed off an obstacle (the body) is held
+//! pass's impulses did: a particle pushed off an obstacle it cannot wrap round
+//! (the body, a needle: [`super::collision::obstacles::Obstacles::holds`]) is held
 //! along the push's normal, so the limits are met by sliding it and moving
 //! its neighbours rather than by pulling it back into the obstacle's
 //! thickness, which the next pass would push out again. The hold is
