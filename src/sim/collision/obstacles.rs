@@ -144,7 +144,7 @@ pub struct Obstacles {
     pub first_mesh_vertex: u32,
     /// Per vertex, whether the cloth pushed off it (or off an edge or
     /// triangle it belongs to) is held off it by the strain projection that
-    /// follows the push ([`holds_the_cloth`]): every mesh vertex, and the
+    /// follows the push: every mesh vertex, and the
     /// features of analytic colliders too thin for the cloth to wrap round.
     pub holds: Vec<bool>,
 }
