@@ -144,8 +144,9 @@ pub struct Obstacles {
     pub first_mesh_vertex: u32,
     /// Per vertex, whether the cloth pushed off it (or off an edge or
     /// triangle it belongs to) is held off it by the strain projection that
-    /// follows the push: every mesh vertex, and the
-    /// features of analytic colliders too thin for the cloth to wrap round.
+    /// follows the push: every mesh vertex, and the features of analytic
+    /// colliders narrower than the cloth's edges, too thin for it to wrap
+    /// round.
     pub holds: Vec<bool>,
 }
 
