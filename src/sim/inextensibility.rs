@@ -483,13 +483,15 @@ impl StrainLimits {
         self.linearise_all(state.x, constraints, state.mass);
         let initial = self.ws.linearised.squared_excess();
         let mut latest = initial;
+        // Stalled short of half the starting excess: the limits are out of reach.
+        let unreachable = |latest: f64| latest > UNREACHABLE_SHARE * initial;
         let most = if holding { HOLDING_NEWTON_ITERATIONS } else { NEWTON_ITERATIONS };
         for _ in 0..=most {
             report.excess_strain = self.update_active_set();
             if report.excess_strain <= STRAIN_TOLERANCE {
                 return;
             }
-            if stalled == STALLED_ITERATIONS && latest > UNREACHABLE_SHARE * initial {
+            if stalled == STALLED_ITERATIONS && unreachable(latest) {
                 report.stalled = true;
                 return;
             }
@@ -527,8 +529,7 @@ impl StrainLimits {
                 // Every later iteration would repeat this one, each one
                 // more stalled: end as they would.
                 let stalls_to_go = STALLED_ITERATIONS.checked_sub(stalled);
-                let unreachable = latest > UNREACHABLE_SHARE * initial;
-                if unreachable && stalls_to_go.is_some_and(|n| report.newton_iterations + n <= most) {
+                if unreachable(latest) && stalls_to_go.is_some_and(|n| report.newton_iterations + n <= most) {
                     report.stalled = true;
                     return;
                 }
