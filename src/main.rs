@@ -523,6 +523,10 @@ fn print_bake_summary(summary: &BakeSummary, scene: &Scene, out: &Path) {
         summary.contacts_max,
         summary.triangle_contacts_max,
     );
+    println!(
+        "the cloth moves {:.1} mm/s on average over the last second (0 when it has come to rest)",
+        summary.mean_speed_last_second_m_per_s * 1e3
+    );
     if summary.rollbacks > 0 {
         let causes = summary.rollback_causes.phrases().join(", ");
         println!("{} steps rolled back and retried halved ({causes})", summary.rollbacks);

@@ -77,6 +77,53 @@ fn free_fall_follows_backward_euler_and_the_parabola() {
     }
 }
 
+/// A bake's speed figures, on a free fall: each frame's mean particle speed
+/// is its backward-Euler drop over the frame's duration (the cloth falls as
+/// one), and the summary's last-second figure averages the frames that end
+/// in the last second.
+#[test]
+fn a_bake_reports_how_fast_the_cloth_moves() {
+    let s = scene(
+        r#"
+        [time]
+        fps = 30.0
+        duration_s = 1.5
+        [solver]
+        steps_per_frame = 2
+        tolerance = 1e-12
+        [[garment]]
+        name = "cloth"
+        preset = "cotton"
+        fabric = { air_damping_per_s = 0.0 }
+        mesh = { grid = { size_m = 0.5, resolution = 8 } }
+        translation_m = [0.0, 20.0, 0.0]
+        "#,
+    );
+    let (records, failure) = bake::run(&s, s.frame_count, &AtomicBool::new(false), |_, _| Ok(())).unwrap();
+    assert!(failure.is_none(), "{failure:?}");
+    let (h, g, frame_s) = (s.step_duration(), 9.81, 1.0 / 30.0);
+    let mut v = 0.0;
+    let expected: Vec<f64> = (0..s.frame_count)
+        .map(|_| {
+            let drop: f64 = (0..2)
+                .map(|_| {
+                    v += g * h;
+                    h * v
+                })
+                .sum();
+            drop / frame_s
+        })
+        .collect();
+    for (record, speed) in records.iter().zip(&expected) {
+        let close = (record.mean_speed_m_per_s - speed).abs() < 1e-9 * speed;
+        assert!(close, "frame {}: {} m/s against {speed} m/s", record.frame, record.mean_speed_m_per_s);
+    }
+    let summary = bake::summary::BakeSummary::new(&s, &records, s.frame_count, None);
+    let last_second = expected[15..].iter().sum::<f64>() / 30.0;
+    let reported = summary.mean_speed_last_second_m_per_s;
+    assert!((reported - last_second).abs() < 1e-9 * last_second, "{reported} m/s against {last_second} m/s");
+}
+
 /// With air damping d, backward Euler gives v ← (v − g h)/(1 + h d) exactly.
 #[test]
 fn air_damping_follows_its_implicit_recurrence() {

@@ -8,6 +8,8 @@ pub mod writer;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use nalgebra::Vector3;
+
 use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
 use crate::sim::adaptive::{AdaptiveSettings, RollbackCauses, Stepper, Unrecoverable};
@@ -51,6 +53,11 @@ pub struct FrameRecord {
     pub max_free_strain: f64,
     /// Mean stretch strain at the end of the frame.
     pub mean_strain: f64,
+    /// Mean speed of the cloth's particles over the frame: each one's
+    /// displacement since the previous frame's end over the frame's
+    /// duration, averaged, m/s. A cloth that has come to rest reads ~0.
+    #[serde(default)]
+    pub mean_speed_m_per_s: f64,
     /// Most particle-collider contacts in one of the frame's steps.
     pub contacts: u32,
     /// Triangle-pair contacts found by the collision pipeline, summed over steps.
@@ -80,6 +87,8 @@ pub struct Baker {
     /// Whether the bake was taken up from a checkpoint ([`Baker::resume_at`]):
     /// its state at `frame` was handed on before.
     resumed: bool,
+    /// The particles' positions at the end of the last frame, m.
+    last_positions: Vec<Vector3<f64>>,
 }
 
 /// Why a bake stopped.
@@ -111,6 +120,7 @@ impl Baker {
         let checker = Checker::new(sim.cloth().triangles.clone(), &scene.colliders, &scene.mesh_colliders);
         let stepper = Stepper::new(scene.step_duration(), AdaptiveSettings::default());
         Ok(Baker {
+            last_positions: sim.positions().to_vec(),
             sim,
             stepper,
             frame_s: scene.frame_duration(),
@@ -132,6 +142,7 @@ impl Baker {
             });
         }
         self.sim.resume_from(snapshot)?;
+        self.last_positions.copy_from_slice(self.sim.positions());
         (self.frame, self.resumed) = (frame, true);
         Ok(())
     }
@@ -207,11 +218,20 @@ impl Baker {
         record.rollbacks = advance.rollbacks;
         record.rollback_causes = advance.causes;
         record.shortest_step_s = advance.shortest_step_s;
+        record.mean_speed_m_per_s = mean_speed(&self.last_positions, self.sim.positions(), self.frame_s);
+        self.last_positions.copy_from_slice(self.sim.positions());
         record.time_s = self.sim.time();
         record.intersections = self.check();
         self.frame = frame;
         Ok(record)
     }
+}
+
+/// Mean over the particles of their speed from `before` to `after` over
+/// `duration_s` s, m/s (0 for none).
+fn mean_speed(before: &[Vector3<f64>], after: &[Vector3<f64>], duration_s: f64) -> f64 {
+    let travelled: f64 = before.iter().zip(after).map(|(a, b)| (b - a).norm()).sum();
+    travelled / (before.len().max(1) as f64 * duration_s)
 }
 
 /// Runs `scene` for `frames` frames, handing each finished frame to `on_frame`,

@@ -75,6 +75,10 @@ pub struct BakeSummary {
     pub max_free_strain_frame: usize,
     /// Mean strain at the last frame.
     pub mean_strain_last: f64,
+    /// Mean speed of the cloth's particles over the last second of the bake
+    /// (the frames ending in it), m/s: how far from rest the drape ends.
+    #[serde(default)]
+    pub mean_speed_last_second_m_per_s: f64,
     /// Most particle-collider contacts in a step.
     pub contacts_max: u32,
     /// Most triangle-feature contacts (vertex-triangle and edge-edge, cloth
@@ -129,6 +133,9 @@ pub struct FrameRow {
     pub max_free_strain: f64,
     /// Mean strain at the frame end.
     pub mean_strain: f64,
+    /// Mean speed of the cloth's particles over the frame, m/s.
+    #[serde(default)]
+    pub mean_speed_m_per_s: f64,
     /// Most contacts in a step.
     pub contacts: u32,
     /// Triangle-pair contacts found, summed over the frame's steps.
@@ -151,6 +158,14 @@ pub fn median(values: &[f64]) -> f64 {
         n if n % 2 == 1 => sorted[n / 2],
         n => 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]),
     }
+}
+
+/// Mean of the frames' mean speeds over the frames that end in the last
+/// second of `records`, m/s (0 for none).
+fn mean_speed_over_last_second(records: &[FrameRecord]) -> f64 {
+    let Some(end) = records.last().map(|r| r.time_s) else { return 0.0 };
+    let last: Vec<f64> = records.iter().filter(|r| r.time_s > end - 1.0 + 1e-9).map(|r| r.mean_speed_m_per_s).collect();
+    last.iter().sum::<f64>() / last.len().max(1) as f64
 }
 
 impl BakeSummary {
@@ -201,6 +216,7 @@ impl BakeSummary {
             max_free_strain: worst_free.map_or(0.0, |r| r.max_free_strain),
             max_free_strain_frame: worst_free.map_or(0, |r| r.frame),
             mean_strain_last: records.last().map_or(0.0, |r| r.mean_strain),
+            mean_speed_last_second_m_per_s: mean_speed_over_last_second(records),
             contacts_max: records.iter().map(|r| r.contacts).max().unwrap_or(0),
             triangle_contacts_max: records.iter().map(|r| r.triangle_contacts).max().unwrap_or(0),
             intersections_total: records.iter().map(|r| r.intersections.pairs()).sum(),
@@ -228,6 +244,7 @@ impl BakeSummary {
                     max_strain: r.max_strain,
                     max_free_strain: r.max_free_strain,
                     mean_strain: r.mean_strain,
+                    mean_speed_m_per_s: r.mean_speed_m_per_s,
                     contacts: r.contacts,
                     triangle_contacts: r.triangle_contacts,
                     impact_zone_steps: r.impact_zone_steps,
