@@ -34,6 +34,7 @@ pub fn overlay_lines(record: &FrameRecord) -> Vec<String> {
             strain += &format!(" ({:.2} % not between pins)", record.max_free_strain * 100.0);
         }
         lines.push(format!("{strain}  mean {:.2} %", record.mean_strain * 100.0));
+        lines.push(format!("cloth moving {:.1} mm/s on average", record.mean_speed_m_per_s * 1e3));
         if record.rollbacks > 0 {
             let causes = record.rollback_causes.phrases().join(", ");
             lines.push(format!("{} steps rolled back and halved ({causes})", record.rollbacks));
@@ -72,6 +73,14 @@ mod tests {
         assert!(lines[2].contains("10.0 it/step"));
         assert!(lines[3].contains("1.23 %"));
         assert!(lines.last().unwrap().starts_with("intersections 3 (cloth-cloth 2, cloth-body 1)"));
+    }
+
+    /// How fast the cloth still moves, so a designer sees when the drape
+    /// has come to rest.
+    #[test]
+    fn overlay_shows_how_fast_the_cloth_moves() {
+        let record = FrameRecord { frame: 90, steps: 2, mean_speed_m_per_s: 0.0110, ..Default::default() };
+        assert_eq!(overlay_lines(&record)[4], "cloth moving 11.0 mm/s on average");
     }
 
     /// Where the largest strain is an edge between two pins (a waistband
