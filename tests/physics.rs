@@ -39,27 +39,33 @@ fn standard(name: &str) -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes").join(format!("{name}.toml"))
 }
 
+/// A small free cotton cloth at `height_m` (m), no colliders, no air, falling
+/// for `duration_s` (s) at 30 fps and `steps_per_frame` solver steps.
+fn free_fall(duration_s: f64, steps_per_frame: u32, height_m: f64) -> Scene {
+    scene(&format!(
+        r#"
+        [time]
+        fps = 30.0
+        duration_s = {duration_s:?}
+        [solver]
+        steps_per_frame = {steps_per_frame}
+        tolerance = 1e-12
+        [[garment]]
+        name = "cloth"
+        preset = "cotton"
+        fabric = {{ air_damping_per_s = 0.0 }}
+        mesh = {{ grid = {{ size_m = 0.5, resolution = 8 }} }}
+        translation_m = [0.0, {height_m:?}, 0.0]
+        "#
+    ))
+}
+
 /// A small free cloth, no colliders, no air: every particle follows backward
 /// Euler's recurrence for constant gravity exactly, which lags the continuous
 /// parabola y₀ − g t²/2 by g h t / 2 (the integrator's known numerical damping).
 #[test]
 fn free_fall_follows_backward_euler_and_the_parabola() {
-    let s = scene(
-        r#"
-        [time]
-        fps = 30.0
-        duration_s = 1.0
-        [solver]
-        steps_per_frame = 4
-        tolerance = 1e-12
-        [[garment]]
-        name = "cloth"
-        preset = "cotton"
-        fabric = { air_damping_per_s = 0.0 }
-        mesh = { grid = { size_m = 0.5, resolution = 8 } }
-        translation_m = [0.0, 10.0, 0.0]
-        "#,
-    );
+    let s = free_fall(1.0, 4, 10.0);
     let mut sim = s.simulator().unwrap();
     let (h, g) = (s.step_duration(), 9.81);
     let mut y_expected = 10.0;
@@ -83,29 +89,14 @@ fn free_fall_follows_backward_euler_and_the_parabola() {
 /// in the last second.
 #[test]
 fn a_bake_reports_how_fast_the_cloth_moves() {
-    let s = scene(
-        r#"
-        [time]
-        fps = 30.0
-        duration_s = 1.5
-        [solver]
-        steps_per_frame = 2
-        tolerance = 1e-12
-        [[garment]]
-        name = "cloth"
-        preset = "cotton"
-        fabric = { air_damping_per_s = 0.0 }
-        mesh = { grid = { size_m = 0.5, resolution = 8 } }
-        translation_m = [0.0, 20.0, 0.0]
-        "#,
-    );
+    let s = free_fall(1.5, 2, 20.0);
     let (records, failure) = bake::run(&s, s.frame_count, &AtomicBool::new(false), |_, _| Ok(())).unwrap();
     assert!(failure.is_none(), "{failure:?}");
-    let (h, g, frame_s) = (s.step_duration(), 9.81, 1.0 / 30.0);
+    let (h, g, frame_s) = (s.step_duration(), 9.81, s.frame_duration());
     let mut v = 0.0;
     let expected: Vec<f64> = (0..s.frame_count)
         .map(|_| {
-            let drop: f64 = (0..2)
+            let drop: f64 = (0..s.steps_per_frame)
                 .map(|_| {
                     v += g * h;
                     h * v
@@ -119,7 +110,8 @@ fn a_bake_reports_how_fast_the_cloth_moves() {
         assert!(close, "frame {}: {} m/s against {speed} m/s", record.frame, record.mean_speed_m_per_s);
     }
     let summary = bake::summary::BakeSummary::new(&s, &records, s.frame_count, None);
-    let last_second = expected[15..].iter().sum::<f64>() / 30.0;
+    let frames_in_a_second = (1.0 / frame_s).round() as usize;
+    let last_second = expected[expected.len() - frames_in_a_second..].iter().sum::<f64>() / frames_in_a_second as f64;
     let reported = summary.mean_speed_last_second_m_per_s;
     assert!((reported - last_second).abs() < 1e-9 * last_second, "{reported} m/s against {last_second} m/s");
 }

@@ -164,8 +164,9 @@ pub fn median(values: &[f64]) -> f64 {
 /// second of `records`, m/s (0 for none).
 fn mean_speed_over_last_second(records: &[FrameRecord]) -> f64 {
     let Some(end) = records.last().map(|r| r.time_s) else { return 0.0 };
-    let last: Vec<f64> = records.iter().filter(|r| r.time_s > end - 1.0 + 1e-9).map(|r| r.mean_speed_m_per_s).collect();
-    last.iter().sum::<f64>() / last.len().max(1) as f64
+    let last = records.iter().filter(|r| r.time_s > end - 1.0 + 1e-9);
+    let (sum, count) = last.fold((0.0, 0), |(sum, count), r| (sum + r.mean_speed_m_per_s, count + 1));
+    sum / f64::from(count.max(1))
 }
 
 impl BakeSummary {
