@@ -132,6 +132,20 @@ impl Default for CollisionSettings {
     }
 }
 
+impl CollisionSettings {
+    /// The influence a resting pair is given at a step's start so that it is
+    /// still remembered after every pass of the step has missed it (its
+    /// spring holding it past the thickness, where no pass sees it): twice
+    /// `FORGOTTEN / aᵖᵃˢˢᵉˢ`. Kept below what one sighting would lift into
+    /// the constraint set (eq. 16), which stays the recurring contacts'.
+    fn influence_kept_for_a_step(&self) -> f64 {
+        let a = self.influence_decay;
+        let outlives_the_passes = 2.0 * FORGOTTEN / a.powi(self.passes as i32);
+        let joins_the_set = (self.influence_threshold - 1.0) / a;
+        outlives_the_passes.min(0.5 * joins_the_set)
+    }
+}
+
 /// Which part of the response a pass hook follows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ResponseStage {

@@ -20,6 +20,17 @@
 //! where they rest: within `band` (a fraction of the thickness) of the
 //! thickness. Crossings just answered and pairs that slid apart fall
 //! outside it.
+//!
+//! A pair that rests is remembered for the whole step, unless its obstacle
+//! feature is a prop the cloth rests on as on a point (a needle, which the
+//! projection after each pass holds the cloth off instead, see
+//! [`super::obstacles`]). The memory fades by the decay factor at every
+//! response pass that does not see a contact, and a pair its spring holds
+//! past the thickness is seen by no pass: it was forgotten within a few
+//! steps, lost its spring, fell back within the thickness, was answered and
+//! remembered again, over and over (on `drape_table`'s edges, half of the
+//! motion left in the settled cloth; remembered on the needles too, the
+//! cloth slid on them four times as fast: BENCHMARKS 2026-12-05 evening).
 
 use nalgebra::Vector3;
 
@@ -81,6 +92,8 @@ impl CollisionPipeline {
     /// at positions `x` (m) and the obstacles where they are at time `t0`
     /// (s), in key order, into `out`; only the kinds the repulsion pushes
     /// (self-contacts, contacts with analytic colliders' sharp features).
+    /// Those resting on a feature the cloth wraps round are remembered for
+    /// the step (see the module documentation).
     pub fn resting_pairs(&mut self, x: &[Vector3<f64>], t0: f64, repulsion: &Repulsion, out: &mut Vec<RestingPair>) {
         out.clear();
         let cloth = self.particles.len() as u32;
@@ -97,15 +110,25 @@ impl CollisionPipeline {
         keys.clear();
         keys.extend(self.influence.keys().filter(|key| wanted(key)));
         keys.sort_unstable();
-        let obstacles = &self.obstacles;
+        let kept = self.settings.influence_kept_for_a_step();
+        let (obstacles, particles, influence) = (&self.obstacles, &self.particles, &mut self.influence);
         let at = |i: u32| if i < cloth { x[i as usize] } else { obstacles.position((i - cloth) as usize, t0) };
         out.extend(keys.iter().filter_map(|key| {
             let nodes = [key[1], key[2], key[3], key[4]];
             let on_cloth = nodes.map(|i| i < cloth);
             let cloth_nodes = nodes.iter().filter(|&&i| i < cloth);
-            let thickness = cloth_nodes.map(|&i| self.particles[i as usize].thickness).fold(0.0, f64::max);
+            let thickness = cloth_nodes.map(|&i| particles[i as usize].thickness).fold(0.0, f64::max);
             let pair = pair_at(key[0], nodes, on_cloth, nodes.map(at), thickness)?;
-            ((pair.distance - thickness).abs() <= repulsion.band * thickness).then_some(pair)
+            let resting = (pair.distance - thickness).abs() <= repulsion.band * thickness;
+            let wrapped =
+                !pair.is_self_contact() && nodes.iter().all(|&i| i < cloth || !obstacles.holds[(i - cloth) as usize]);
+            if resting
+                && wrapped
+                && let Some((value, _)) = influence.get_mut(key)
+            {
+                *value = value.max(kept);
+            }
+            resting.then_some(pair)
         }));
     }
 }
@@ -192,6 +215,72 @@ mod tests {
         assert_eq!(nodes, [[3, 0, 1, 2], [4, 0, 1, 2]]);
         assert!(pairs.iter().all(RestingPair::is_self_contact));
         assert!((pairs[1].distance - 1.05 * THICKNESS).abs() < 1e-12 && pairs[1].thickness == THICKNESS);
+    }
+
+    /// A cloth triangle that its spring holds just past a table's corner is
+    /// seen by no response pass: remembered at the step's start while it
+    /// rests, it outlives a step of passes that miss it, where a faint memory
+    /// fades out in a few. A pair past the band is left to fade, and so are
+    /// a cloth triangle resting on a needle's tip (which the projection holds
+    /// the cloth off) and a fold resting on itself.
+    #[test]
+    fn a_pair_resting_on_a_wrapped_feature_is_remembered_through_a_step_that_never_sees_it() {
+        // A 1 m box whose top face is y = 0, corner 7 at (0.5, 0, 0.5); a
+        // needle at x = 2 m whose top is at y = 0.
+        let at = |x: f64, y: f64| Placement { rest_pose: Isometry3::translation(x, y, 0.0), motion: None };
+        let table = Collider {
+            name: "table".into(),
+            shape: Shape::Box { half_extents: Vector3::repeat(0.5) },
+            placement: at(0.0, -0.5),
+            friction: None,
+        };
+        let needle = Collider {
+            name: "needle".into(),
+            shape: Shape::Cylinder { radius: 0.003, half_height: 0.2 },
+            placement: at(2.0, -0.2),
+            friction: None,
+        };
+        let mut pipeline = pipeline(9, vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]], &[table, needle], &[]);
+        let obstacle = |k: u32| 9 + k;
+        let on_the_tip = |k: &u32| {
+            let p = pipeline.obstacles.position(*k as usize, 0.0);
+            p.x > 1.9 && p.y.abs() < 1e-12 && p.z.abs() < 1e-12
+        };
+        let tip = (0..pipeline.obstacles.vertex_count() as u32).find(on_the_tip).expect("the needle's rim at x > 2");
+        let on_the_corner = [0, obstacle(7), 0, 1, 2];
+        let corner_far_away = [0, obstacle(7), 3, 4, 5];
+        let on_the_needle = [0, obstacle(tip), 3, 4, 5];
+        let on_itself = [0, 6, 0, 1, 2];
+        let faint = |key| (key, 0.01, false);
+        let memory = [faint(on_the_corner), faint(corner_far_away), faint(on_the_needle), faint(on_itself)];
+        pipeline.restore_memory(&CollisionMemory::from_entries(&memory));
+        let l = 1.05 * THICKNESS;
+        let x = [
+            Vector3::new(0.4, l, 0.4),
+            Vector3::new(0.7, l, 0.4),
+            Vector3::new(0.4, l, 0.7),
+            Vector3::new(1.9, l, -0.1),
+            Vector3::new(2.3, l, -0.1),
+            Vector3::new(1.9, l, 0.3),
+            Vector3::new(0.45, 2.0 * l, 0.45),
+            Vector3::new(0.0, 0.5, 0.0),
+            Vector3::new(0.0, 0.5, 0.1),
+        ];
+        let mut pairs = Vec::new();
+        pipeline.resting_pairs(&x, 0.0, &repulsion(0.5, 30.0), &mut pairs);
+        let nodes: Vec<[u32; 4]> = pairs.iter().map(|p| p.nodes).collect();
+        assert_eq!(nodes, [[6, 0, 1, 2], [obstacle(7), 0, 1, 2], [obstacle(tip), 3, 4, 5]], "three rest");
+        for _ in 0..pipeline.settings.passes {
+            pipeline.respond_pass(0.01);
+        }
+        let mut memory = CollisionMemory::default();
+        pipeline.save_memory(&mut memory);
+        let entries = memory.entries();
+        let kept: Vec<[u32; 5]> = entries.iter().map(|e| e.0).collect();
+        assert_eq!(kept, [on_the_corner]);
+        let settings = &pipeline.settings;
+        let influence = entries[0].1;
+        assert!(influence * settings.influence_decay + 1.0 < settings.influence_threshold, "{influence}");
     }
 
     /// A cloth edge drawn over a box's top edge and a cloth triangle lying
