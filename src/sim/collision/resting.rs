@@ -30,7 +30,7 @@
 //! steps, lost its spring, fell back within the thickness, was answered and
 //! remembered again, over and over (on `drape_table`'s edges, half of the
 //! motion left in the settled cloth; remembered on the needles too, the
-//! cloth slid on them four times as fast: BENCHMARKS 2026-12-05 evening).
+//! cloth slid on them four times as fast: BENCHMARKS 2026-12-05 late night).
 
 use nalgebra::Vector3;
 
