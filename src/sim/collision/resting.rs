@@ -36,6 +36,7 @@ use nalgebra::Vector3;
 
 use super::CollisionPipeline;
 use super::geometry::{closest_between_segments, closest_on_triangle};
+use super::obstacles::Obstacles;
 use crate::sim::repulsion::Repulsion;
 
 /// Two features resting on each other at a step's start: both the cloth's,
@@ -120,10 +121,8 @@ impl CollisionPipeline {
             let thickness = cloth_nodes.map(|&i| particles[i as usize].thickness).fold(0.0, f64::max);
             let pair = pair_at(key[0], nodes, on_cloth, nodes.map(at), thickness)?;
             let resting = (pair.distance - thickness).abs() <= repulsion.band * thickness;
-            let wrapped =
-                !pair.is_self_contact() && nodes.iter().all(|&i| i < cloth || !obstacles.holds[(i - cloth) as usize]);
             if resting
-                && wrapped
+                && wraps_round(obstacles, &pair, cloth)
                 && let Some((value, _)) = influence.get_mut(key)
             {
                 *value = value.max(kept);
@@ -131,6 +130,14 @@ impl CollisionPipeline {
             resting.then_some(pair)
         }));
     }
+}
+
+/// Whether `pair` is the cloth on an obstacle feature it wraps round: not
+/// a self-contact, nor the tip of a prop the projection holds the cloth
+/// off. Obstacle points are numbered from `cloth` on.
+fn wraps_round(obstacles: &Obstacles, pair: &RestingPair, cloth: u32) -> bool {
+    let held = |i: u32| i >= cloth && obstacles.holds[(i - cloth) as usize];
+    !pair.is_self_contact() && !pair.nodes.into_iter().any(held)
 }
 
 /// The pair of `kind` (0 vertex-triangle, 1 edge-edge) between `nodes` at
