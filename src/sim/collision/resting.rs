@@ -114,21 +114,22 @@ impl CollisionPipeline {
         let kept = self.settings.influence_kept_for_a_step();
         let (obstacles, particles, influence) = (&self.obstacles, &self.particles, &mut self.influence);
         let at = |i: u32| if i < cloth { x[i as usize] } else { obstacles.position((i - cloth) as usize, t0) };
-        out.extend(keys.iter().filter_map(|key| {
+        for key in keys.iter() {
             let nodes = [key[1], key[2], key[3], key[4]];
             let on_cloth = nodes.map(|i| i < cloth);
             let cloth_nodes = nodes.iter().filter(|&&i| i < cloth);
             let thickness = cloth_nodes.map(|&i| particles[i as usize].thickness).fold(0.0, f64::max);
-            let pair = pair_at(key[0], nodes, on_cloth, nodes.map(at), thickness)?;
-            let resting = (pair.distance - thickness).abs() <= repulsion.band * thickness;
-            if resting
-                && wraps_round(obstacles, &pair, cloth)
+            let Some(pair) = pair_at(key[0], nodes, on_cloth, nodes.map(at), thickness) else { continue };
+            if (pair.distance - thickness).abs() > repulsion.band * thickness {
+                continue;
+            }
+            if wraps_round(obstacles, &pair, cloth)
                 && let Some((value, _)) = influence.get_mut(key)
             {
                 *value = value.max(kept);
             }
-            resting.then_some(pair)
-        }));
+            out.push(pair);
+        }
     }
 }
 
