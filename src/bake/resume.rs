@@ -40,7 +40,7 @@ const RECORDS: &str = "records.jsonl";
 /// Signature of a checkpoint file.
 const MAGIC: &[u8; 8] = b"DRAPERSM";
 /// Version of the checkpoint layout.
-const FORMAT_VERSION: u32 = 1;
+const FORMAT_VERSION: u32 = 2;
 /// Signature, version, CRC and length.
 const HEADER_BYTES: usize = 8 + 4 + 4 + 8;
 
@@ -295,6 +295,7 @@ mod tests {
                 resting_on: vec![u32::MAX],
                 released: vec![false],
                 normal_force_n: vec![0.25],
+                last_step: Default::default(),
                 warm_start: vec![[0.0; 3]],
                 contact_influence: vec![([1, 2, 3, 4, 5], 1.5, true)],
                 factor: None,

@@ -20,6 +20,7 @@ pub mod implicit;
 pub mod inextensibility;
 pub mod limit_edges;
 pub mod llt;
+pub mod local_error;
 pub mod motion;
 pub mod multigrid;
 pub mod parallel;

@@ -28,6 +28,10 @@ pub struct Snapshot {
     pub released: Vec<bool>,
     /// Normal force of each particle's contact in the last solve, N.
     pub normal_force_n: Vec<f64>,
+    /// The local error estimate of the last step, which decides the length
+    /// of the next ([`super::adaptive`]); none in snapshots from before it.
+    #[serde(default)]
+    pub last_step: super::local_error::LocalError,
     /// The last solve's velocity change, the next solve's first guess, m/s.
     pub warm_start: Vec<[f64; 3]>,
     /// The collision pipeline's remembered contacts: feature key, influence
@@ -98,6 +102,7 @@ impl Snapshot {
         let finite = |v: &[[f64; 3]]| v.iter().flatten().all(|c| c.is_finite());
         let checks = [
             ("time", self.time_s.is_finite()),
+            ("step error", self.last_step.step_s.is_finite() && self.last_step.error_m.is_finite()),
             ("position", finite(&self.positions)),
             ("velocity", finite(&self.velocities)),
             ("normal force", self.normal_force_n.iter().all(|f| f.is_finite())),

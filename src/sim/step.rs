@@ -21,7 +21,8 @@
 //!    next detection, so the step ends on a detection of its final
 //!    positions and reports the crossings it found (the safety net,
 //!    [`super::adaptive`], rolls such a step back);
-//! 6. **finish**: pins placed exactly, finiteness check, commit, strain.
+//! 6. **finish**: pins placed exactly, finiteness check, the step's local error
+//!    estimate ([`super::local_error`]), commit, strain.
 //!
 //! A step that produces a non-finite value is not committed: the state stays
 //! as it was before the step and the error names the time and the particle.
@@ -49,6 +50,7 @@ use super::implicit::{
     net_forces,
 };
 use super::inextensibility::{ProjectedState, ProjectionReport, STRAIN_TOLERANCE, StrainLimiting, StrainLimits};
+use super::local_error::LocalError;
 use super::motion::Placement;
 use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
@@ -261,6 +263,9 @@ pub struct StepReport {
     pub max_free_strain: f64,
     /// Mean stretch-spring strain |l − l₀| / l₀ after the step.
     pub mean_strain: f64,
+    /// Largest strain beyond its limit of an edge the strain limits hold,
+    /// after the step, unitless (0 when all are within, or without limits).
+    pub excess_strain: f64,
     /// The inextensibility projection.
     pub projection: ProjectionReport,
     /// Particle-collider contacts handled.
@@ -275,6 +280,8 @@ pub struct StepReport {
     pub factorizations: u32,
     /// Triangle collisions (self, meshes, sharp features).
     pub collision: CollisionReport,
+    /// Backward Euler's local error estimate of the step.
+    pub local_error: LocalError,
 }
 
 /// How a simulation is solved.
@@ -414,6 +421,7 @@ pub struct Checkpoint {
     resting_on: Vec<u32>,
     released: Vec<bool>,
     normal_force: Vec<f64>,
+    last_step: LocalError,
     collision: Option<CollisionMemory>,
     /// A fabric change in progress: it recomputes the coefficients of each
     /// step from its step count, so restoring it is enough.
@@ -469,6 +477,8 @@ pub struct Simulator {
     released: Vec<bool>,
     /// Normal force of each particle's contact in the last solve, N.
     normal_force: Vec<f64>,
+    /// The local error estimate of the last step.
+    last_step: LocalError,
     colliders: Vec<Collider>,
     /// The mesh colliders particles are glued to (all of them when any is).
     attachment_meshes: Vec<MeshCollider>,
@@ -551,6 +561,7 @@ impl Simulator {
             resting_on: vec![NO_COLLIDER; n],
             released: vec![false; n],
             normal_force: vec![0.0; n],
+            last_step: LocalError::default(),
             colliders,
             attachment_meshes,
             settings: settings.solver,
@@ -575,6 +586,11 @@ impl Simulator {
     /// Simulated time, s.
     pub fn time(&self) -> f64 {
         self.time
+    }
+
+    /// The local error estimate of the last step (none before the first).
+    pub fn last_step(&self) -> LocalError {
+        self.last_step
     }
 
     /// The cloth (topology, masses, fabrics).
@@ -662,6 +678,7 @@ impl Simulator {
         into.resting_on.clone_from(&self.resting_on);
         into.released.clone_from(&self.released);
         into.normal_force.clone_from(&self.normal_force);
+        into.last_step = self.last_step;
         if let Some(pipeline) = &self.collision {
             pipeline.save_memory(into.collision.get_or_insert_with(CollisionMemory::default));
         }
@@ -676,6 +693,7 @@ impl Simulator {
         self.resting_on.clone_from(&checkpoint.resting_on);
         self.released.clone_from(&checkpoint.released);
         self.normal_force.clone_from(&checkpoint.normal_force);
+        self.last_step = checkpoint.last_step;
         if let (Some(pipeline), Some(memory)) = (&mut self.collision, &checkpoint.collision) {
             pipeline.restore_memory(memory);
         }
@@ -703,6 +721,7 @@ impl Simulator {
             resting_on: self.resting_on.clone(),
             released: self.released.clone(),
             normal_force_n: self.normal_force.clone(),
+            last_step: self.last_step,
             warm_start,
             contact_influence: memory.unwrap_or_default(),
             factor: self.preconditioner.state(),
@@ -725,6 +744,7 @@ impl Simulator {
         self.resting_on.clone_from(&snapshot.resting_on);
         self.released.clone_from(&snapshot.released);
         self.normal_force.clone_from(&snapshot.normal_force_n);
+        self.last_step = snapshot.last_step;
         if let Some(pipeline) = &mut self.collision {
             pipeline.restore_memory(&CollisionMemory::from_entries(&snapshot.contact_influence));
         }
@@ -874,6 +894,8 @@ impl Simulator {
             self.ws.velocity_change.iter_mut().for_each(|d| *d = Vector3::zeros());
             return Err(StepError::NonFinite { time: window.t1, particle });
         }
+        report.local_error = LocalError::of_step(h, &self.v, &self.ws.next_v, &self.fixed);
+        self.last_step = report.local_error;
         std::mem::swap(&mut self.x, &mut self.ws.next_x);
         std::mem::swap(&mut self.v, &mut self.ws.next_v);
         self.time = window.t1;
@@ -1111,6 +1133,14 @@ impl Simulator {
         let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
         let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| spring_strain(cloth, x, stretch[k]).abs());
         report.mean_strain = total / stretch.len().max(1) as f64;
+        report.excess_strain = self.excess_strain();
+    }
+
+    /// Largest strain beyond its limit of an edge the strain limits hold
+    /// now, unitless (0 when all are within, or without limits): what
+    /// [`StepReport::excess_strain`] reports after a step.
+    pub fn excess_strain(&self) -> f64 {
+        self.strain_limits.as_ref().map_or(0.0, |limits| limits.excess_strain(&self.x))
     }
 }
 
