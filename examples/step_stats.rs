@@ -20,7 +20,7 @@ use anyhow::Context;
 use clap::Parser;
 use drape::scene::Scene;
 use drape::sim::StepReport;
-use drape::sim::adaptive::{AdaptiveSettings, Stepper};
+use drape::sim::adaptive::Stepper;
 use drape::sim::step::StageTimings;
 
 /// The command line.
@@ -39,7 +39,7 @@ fn main() -> anyhow::Result<()> {
     let args = Args::parse();
     let scene = Scene::load(&args.scene)?;
     let mut sim = scene.simulator()?;
-    let mut stepper = Stepper::new(scene.step_duration(), AdaptiveSettings::default());
+    let mut stepper = Stepper::new(scene.step_duration(), scene.adaptive_settings());
     let mut frames = Vec::new();
     for frame in 1..=args.frames {
         let mut timings = StageTimings::default();

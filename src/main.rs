@@ -527,6 +527,13 @@ fn print_bake_summary(summary: &BakeSummary, scene: &Scene, out: &Path) {
         "the cloth moves {:.1} mm/s on average over the last second (0 when it has come to rest)",
         summary.mean_speed_last_second_m_per_s * 1e3
     );
+    if summary.steps_per_frame_mean < f64::from(summary.steps_per_frame) {
+        println!(
+            "{:.2} steps/frame on average of the {} nominal: longer steps while the cloth was calm \
+             ({} taken again shorter; [solver] long_step_error = {})",
+            summary.steps_per_frame_mean, summary.steps_per_frame, summary.long_steps_rejected, summary.long_step_error
+        );
+    }
     if summary.rollbacks > 0 {
         let causes = summary.rollback_causes.phrases().join(", ");
         println!("{} steps rolled back and retried halved ({causes})", summary.rollbacks);

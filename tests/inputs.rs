@@ -158,6 +158,14 @@ fn bad_inputs_get_clear_errors_naming_the_file_and_the_problem() {
         ),
         (vec![("scene.toml", "[time]\nduration_s = 0.0\n".into())], vec!["time.duration_s", "out of range"]),
         (
+            vec![("scene.toml", format!("[solver]\nlong_step_error = -0.5\n{GOOD_HEAD}preset = \"cotton\"\n{grid}"))],
+            vec!["solver.long_step_error", "-0.5 is out of range", "0 ≤ value ≤ 100"],
+        ),
+        (
+            vec![("scene.toml", format!("[solver]\nlong_step_error = nan\n{GOOD_HEAD}preset = \"cotton\"\n{grid}"))],
+            vec!["solver.long_step_error", "NaN is out of range"],
+        ),
+        (
             vec![("scene.toml", format!("[collision]\npass_progress = 1.0\n{GOOD_HEAD}preset = \"cotton\"\n{grid}"))],
             vec!["collision.pass_progress", "1 is out of range", "0 ≤ p < 1"],
         ),

@@ -101,8 +101,9 @@ pub const PARAMETERS: [Parameter; 13] = [
     Parameter {
         label: "Time step",
         unit: "s",
-        effect: "Longest solver step for this fabric. Shorter steps are more accurate and slower; the frame \
-                 is split into as many steps as it needs.",
+        effect: "Longest solver step for this fabric while it moves. Shorter steps are more accurate and \
+                 slower; the frame is split into as many steps as it needs, and steps lengthen up to a frame \
+                 while the cloth is calm (the scene's long_step_error).",
         range: (1e-4, 0.05),
         logarithmic: true,
         value: |f| &mut f.time_step_s,

@@ -11,10 +11,11 @@ pub fn overlay_lines(record: &FrameRecord) -> Vec<String> {
     if record.frame > 0 && record.steps > 0 {
         let steps_per_s = if total_ms > 0.0 { f64::from(record.steps) * 1e3 / total_ms } else { 0.0 };
         lines.push(format!(
-            "frame {}  {:.1} ms  ({} steps, {:.1} ms/step, {:.0} steps/s)",
+            "frame {}  {:.1} ms  ({} steps of up to {:.1} ms, {:.1} ms/step, {:.0} steps/s)",
             record.frame,
             total_ms,
             record.steps,
+            record.longest_step_s * 1e3,
             total_ms / f64::from(record.steps),
             steps_per_s
         ));
@@ -38,6 +39,9 @@ pub fn overlay_lines(record: &FrameRecord) -> Vec<String> {
         if record.rollbacks > 0 {
             let causes = record.rollback_causes.phrases().join(", ");
             lines.push(format!("{} steps rolled back and halved ({causes})", record.rollbacks));
+        }
+        if record.long_steps_rejected > 0 {
+            lines.push(format!("{} long steps too far off, taken again shorter", record.long_steps_rejected));
         }
     } else {
         lines.push(format!("frame {} (initial state)", record.frame));
@@ -64,15 +68,19 @@ mod tests {
     fn overlay_reports_time_per_step_strain_and_the_checkers_count() {
         let mut record =
             FrameRecord { frame: 7, steps: 4, cg_iterations: 40, max_strain: 0.0123, ..Default::default() };
+        record.longest_step_s = 1.0 / 120.0;
         record.timings.solve = Duration::from_millis(30);
         record.timings.narrow = Duration::from_millis(10);
         record.intersections = Intersections { cloth_pairs: 2, collider_pairs: 1, penetrating_vertices: 0 };
         let lines = overlay_lines(&record);
         assert!(lines[0].contains("40.0 ms") && lines[0].contains("10.0 ms/step") && lines[0].contains("100 steps/s"));
+        assert!(lines[0].contains("4 steps of up to 8.3 ms"), "{}", lines[0]);
         assert!(lines[1].starts_with("stages ms: solve 30.0, narrow 10.0"), "{}", lines[1]);
         assert!(lines[2].contains("10.0 it/step"));
         assert!(lines[3].contains("1.23 %"));
         assert!(lines.last().unwrap().starts_with("intersections 3 (cloth-cloth 2, cloth-body 1)"));
+        record.long_steps_rejected = 1;
+        assert!(overlay_lines(&record).contains(&"1 long steps too far off, taken again shorter".to_owned()));
     }
 
     /// How fast the cloth still moves, so a designer sees when the drape

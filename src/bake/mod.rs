@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 
 use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
-use crate::sim::adaptive::{AdaptiveSettings, RollbackCauses, Stepper, Unrecoverable};
+use crate::sim::adaptive::{RollbackCauses, Stepper, Unrecoverable};
 use crate::sim::fabric::Fabric;
 use crate::sim::snapshot::{Snapshot, SnapshotError};
 use crate::sim::step::{StageTimings, TuningError};
@@ -39,6 +39,11 @@ pub struct FrameRecord {
     pub rollback_causes: RollbackCauses,
     /// Shortest step taken in the frame, s.
     pub shortest_step_s: f64,
+    /// Longest step taken in the frame, s.
+    pub longest_step_s: f64,
+    /// Steps longer than the nominal one rolled back for their error and
+    /// retried shorter.
+    pub long_steps_rejected: u32,
     /// Newton iterations of the inextensibility projection, summed over the steps.
     pub projection_iterations: u32,
     /// Their conjugate-gradient iterations, summed over the steps.
@@ -118,7 +123,7 @@ impl Baker {
     pub fn new(scene: &Scene) -> Result<Self, BakeError> {
         let sim = scene.simulator()?;
         let checker = Checker::new(sim.cloth().triangles.clone(), &scene.colliders, &scene.mesh_colliders);
-        let stepper = Stepper::new(scene.step_duration(), AdaptiveSettings::default());
+        let stepper = Stepper::new(scene.step_duration(), scene.adaptive_settings());
         Ok(Baker {
             last_positions: sim.positions().to_vec(),
             sim,
@@ -175,7 +180,7 @@ impl Baker {
     /// linear-solver `tolerance` (unitless).
     pub fn set_effort(&mut self, steps_per_frame: u32, tolerance: f64) {
         self.steps_per_frame = steps_per_frame.max(1);
-        self.stepper = Stepper::new(self.frame_s / f64::from(self.steps_per_frame), AdaptiveSettings::default());
+        self.stepper = Stepper::new(self.frame_s / f64::from(self.steps_per_frame), self.stepper.settings());
         self.sim.set_solver_tolerance(tolerance);
     }
 
@@ -218,6 +223,8 @@ impl Baker {
         record.rollbacks = advance.rollbacks;
         record.rollback_causes = advance.causes;
         record.shortest_step_s = advance.shortest_step_s;
+        record.longest_step_s = advance.longest_step_s;
+        record.long_steps_rejected = advance.long_steps_rejected;
         record.mean_speed_m_per_s = mean_speed(&self.last_positions, self.sim.positions(), self.frame_s);
         self.last_positions.copy_from_slice(self.sim.positions());
         record.time_s = self.sim.time();

@@ -28,8 +28,20 @@ pub struct BakeSummary {
     pub fps: f64,
     /// Solver steps per frame.
     pub steps_per_frame: u32,
-    /// Solver step, s.
+    /// Nominal solver step, s.
     pub step_s: f64,
+    /// Solver steps taken per frame, on average: fewer than `steps_per_frame`
+    /// where steps lengthened while the cloth was calm.
+    #[serde(default)]
+    pub steps_per_frame_mean: f64,
+    /// The local error estimate a step longer than the nominal one could
+    /// have, as a fraction of the nominal step's error in free fall (0:
+    /// every step nominal).
+    #[serde(default)]
+    pub long_step_error: f64,
+    /// Long steps rolled back for their error and retried shorter.
+    #[serde(default)]
+    pub long_steps_rejected: u32,
     /// Worker threads used by the solver.
     pub threads: usize,
     /// Cloth particles.
@@ -120,6 +132,9 @@ pub struct FrameRow {
     pub frame: usize,
     /// Simulation wall time, ms.
     pub ms: f64,
+    /// Solver steps taken.
+    #[serde(default)]
+    pub steps: u32,
     /// Conjugate-gradient iterations over the frame.
     pub cg_iterations: u32,
     /// Cholesky factors built over the frame.
@@ -193,6 +208,9 @@ impl BakeSummary {
             fps: scene.fps,
             steps_per_frame: scene.steps_per_frame,
             step_s: scene.step_duration(),
+            steps_per_frame_mean: f64::from(steps) / records.len().max(1) as f64,
+            long_step_error: scene.long_step_error,
+            long_steps_rejected: records.iter().map(|r| r.long_steps_rejected).sum(),
             threads: rayon::current_num_threads(),
             vertices: cloth.vertex_count(),
             springs: cloth.spring_count(),
@@ -239,6 +257,7 @@ impl BakeSummary {
                 .map(|r| FrameRow {
                     frame: r.frame,
                     ms: ms(r),
+                    steps: r.steps,
                     cg_iterations: r.cg_iterations,
                     factorizations: r.factorizations,
                     projection_iterations: r.projection_iterations,

@@ -97,9 +97,12 @@ pub fn variant(scene: &Scene, steps_per_frame: u32, tolerance: f64) -> Scene {
 }
 
 /// `scene` as its reference runs it: [`REFERENCE_REFINEMENT`]× the steps per
-/// frame, tolerance [`REFERENCE_TOLERANCE`].
+/// frame, tolerance [`REFERENCE_TOLERANCE`], and never a step longer than
+/// that.
 pub fn reference_scene(scene: &Scene) -> Scene {
-    variant(scene, scene.steps_per_frame.saturating_mul(REFERENCE_REFINEMENT), REFERENCE_TOLERANCE)
+    let mut reference = variant(scene, scene.steps_per_frame.saturating_mul(REFERENCE_REFINEMENT), REFERENCE_TOLERANCE);
+    reference.long_step_error = 0.0;
+    reference
 }
 
 impl Reference {

@@ -176,6 +176,13 @@ pub struct SolverSettings {
     /// Relative residual at which the conjugate-gradient solve stops.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
+    /// The local error estimate (backward Euler's, root mean square over the
+    /// particles) a step longer than `1/steps_per_frame` of a frame may
+    /// have, as a fraction of the error the nominal step makes in free fall:
+    /// while the cloth is that calm, steps double up to a whole frame
+    /// ([`crate::sim::adaptive`]). 0 keeps every step nominal.
+    #[serde(default = "default_long_step_error")]
+    pub long_step_error: f64,
     /// Iteration cap of the conjugate-gradient solve.
     #[serde(default = "default_max_iterations")]
     pub max_iterations: u32,
@@ -195,6 +202,10 @@ fn default_tolerance() -> f64 {
     1e-3
 }
 
+fn default_long_step_error() -> f64 {
+    0.5
+}
+
 fn default_max_iterations() -> u32 {
     500
 }
@@ -204,6 +215,7 @@ impl Default for SolverSettings {
         SolverSettings {
             steps_per_frame: None,
             tolerance: default_tolerance(),
+            long_step_error: default_long_step_error(),
             max_iterations: default_max_iterations(),
             preconditioner: PreconditionerKind::default(),
             strain_limiting: StrainLimiting::default(),

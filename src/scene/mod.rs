@@ -16,6 +16,7 @@ use self::preset::{Appearance, Preset, PresetError};
 use crate::io::obj::{ObjError, read_obj};
 use crate::mesh::validate::MeshReport;
 use crate::mesh::{TriMesh, generate};
+use crate::sim::adaptive::AdaptiveSettings;
 use crate::sim::cloth::Cloth;
 use crate::sim::colliders::{Collider, Shape};
 use crate::sim::collision::CollisionSettings;
@@ -45,8 +46,13 @@ pub struct Scene {
     pub fps: f64,
     /// Frames simulated after the initial frame 0.
     pub frame_count: usize,
-    /// Solver steps per frame.
+    /// Solver steps per frame: the nominal step is `1/steps_per_frame` of a
+    /// frame.
     pub steps_per_frame: u32,
+    /// The local error estimate a step longer than the nominal one may
+    /// have, as a fraction of the nominal step's error in free fall (0:
+    /// every step nominal).
+    pub long_step_error: f64,
     /// Linear solver settings.
     pub solver: PcgSettings,
     /// How strain limits are enforced.
@@ -189,6 +195,7 @@ impl Scene {
         let mut file = self.file.clone();
         file.solver.steps_per_frame = Some(self.steps_per_frame);
         file.solver.tolerance = self.solver.tolerance;
+        file.solver.long_step_error = self.long_step_error;
         for (spec, garment) in file.garments.iter_mut().zip(&self.garments) {
             if let Ok(table) = toml::Table::try_from(&garment.fabric) {
                 spec.fabric = table;
@@ -207,9 +214,14 @@ impl Scene {
         1.0 / self.fps
     }
 
-    /// Duration of one solver step, s.
+    /// Duration of one nominal solver step, s.
     pub fn step_duration(&self) -> f64 {
         self.frame_duration() / self.steps_per_frame as f64
+    }
+
+    /// How its steps are retried, shortened and lengthened.
+    pub fn adaptive_settings(&self) -> AdaptiveSettings {
+        AdaptiveSettings { long_step_error: self.long_step_error, ..AdaptiveSettings::default() }
     }
 
     /// Builds the cloth of every garment, in order (particle indices follow).
@@ -264,6 +276,8 @@ impl Resolver<'_> {
         self.check("time.duration_s", file.time.duration_s, |v| v > 0.0 && v <= 36_000.0, "0 < duration ≤ 36000 s")?;
         let solver = &file.solver;
         self.check("solver.tolerance", solver.tolerance, |v| v > 0.0 && v < 1.0, "0 < tolerance < 1")?;
+        let long_step = solver.long_step_error;
+        self.check("solver.long_step_error", long_step, |v| (0.0..=100.0).contains(&v), "0 ≤ value ≤ 100")?;
         if solver.max_iterations == 0 {
             return Err(self.invalid("solver.max_iterations", "must be at least 1"));
         }
@@ -310,6 +324,7 @@ impl Resolver<'_> {
             fps,
             frame_count: (file.time.duration_s * fps).round().max(1.0) as usize,
             steps_per_frame,
+            long_step_error: long_step,
             solver: PcgSettings {
                 tolerance: solver.tolerance,
                 max_iterations: solver.max_iterations,

@@ -40,7 +40,9 @@ pub struct Fabric {
     pub air_damping_per_s: f64,
     /// Gravitational acceleration, m/s² (`Gravity`).
     pub gravity_m_per_s2: [f64; 3],
-    /// Largest simulation step this fabric is tuned for, s (`SimulationDeltT`).
+    /// Largest simulation step this fabric is tuned for while it moves, s
+    /// (`SimulationDeltT`); steps lengthen past it while the cloth is calm
+    /// ([`super::adaptive`]).
     pub time_step_s: f64,
     /// Coulomb friction coefficient against colliders and itself, unitless.
     pub friction: f64,
