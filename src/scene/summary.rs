@@ -25,6 +25,15 @@ pub fn summary(scene: &Scene) -> String {
         scene.steps_per_frame,
         scene.step_duration() * 1e3
     );
+    let long_steps = if scene.long_step_error > 0.0 {
+        format!(
+            "longer, up to a frame, while a step's error estimate stays under {} × the nominal step's free-fall error",
+            scene.long_step_error
+        )
+    } else {
+        "never longer than nominal (long_step_error = 0)".to_owned()
+    };
+    let _ = writeln!(out, "  steps: {long_steps}");
     let _ = writeln!(
         out,
         "  solver: conjugate gradients to relative residual {:e}, at most {} iterations",
@@ -112,5 +121,25 @@ fn describe(shape: &Shape) -> String {
         Shape::Cylinder { radius, half_height } => format!("cylinder r = {radius} m, h = {} m", 2.0 * half_height),
         Shape::Cone { radius, half_height } => format!("cone r = {radius} m, h = {} m", 2.0 * half_height),
         Shape::Prism { side, half_height } => format!("triangular prism side {side} m, h = {} m", 2.0 * half_height),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+
+    #[test]
+    fn the_summary_says_whether_steps_lengthen_while_the_cloth_is_calm() {
+        let text = |solver: &str| {
+            let scene = format!(
+                "[time]\nduration_s = 1.0\n[solver]\n{solver}\n[[garment]]\nname = \"cloth\"\npreset = \"cotton\"\n\
+                 mesh = {{ grid = {{ size_m = 0.5, resolution = 4 }} }}\n"
+            );
+            summary(&Scene::parse(&scene, "s", Path::new("."), "test scene").expect("a valid scene"))
+        };
+        assert!(text("steps_per_frame = 2").contains("up to a frame, while a step's error estimate stays under 0.5 ×"));
+        assert!(text("long_step_error = 0.0").contains("never longer than nominal"));
     }
 }
