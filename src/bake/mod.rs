@@ -41,8 +41,8 @@ pub struct FrameRecord {
     pub shortest_step_s: f64,
     /// Longest step taken in the frame, s.
     pub longest_step_s: f64,
-    /// Steps longer than the nominal one rolled back for their error and
-    /// retried shorter.
+    /// Steps longer than the nominal one rolled back for their error or
+    /// their strain and retried shorter.
     pub long_steps_rejected: u32,
     /// Newton iterations of the inextensibility projection, summed over the steps.
     pub projection_iterations: u32,

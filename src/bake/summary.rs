@@ -39,7 +39,8 @@ pub struct BakeSummary {
     /// every step nominal).
     #[serde(default)]
     pub long_step_error: f64,
-    /// Long steps rolled back for their error and retried shorter.
+    /// Long steps rolled back for their error or their strain and retried
+    /// shorter.
     #[serde(default)]
     pub long_steps_rejected: u32,
     /// Worker threads used by the solver.
