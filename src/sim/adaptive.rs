@@ -272,21 +272,12 @@ pub struct Stepper {
     start_strain: f64,
     /// The largest strain then of a stretch edge not pinned at both ends, unitless.
     start_free_strain: f64,
-    /// The largest strain beyond its limit then, unitless.
-    start_excess_strain: f64,
 }
 
 impl Stepper {
     /// A stepper whose normal step is `nominal_s` seconds.
     pub fn new(nominal_s: f64, settings: AdaptiveSettings) -> Self {
-        Stepper {
-            nominal_s,
-            settings,
-            checkpoint: Checkpoint::default(),
-            start_strain: 0.0,
-            start_free_strain: 0.0,
-            start_excess_strain: 0.0,
-        }
+        Stepper { nominal_s, settings, checkpoint: Checkpoint::default(), start_strain: 0.0, start_free_strain: 0.0 }
     }
 
     /// How it retries, shortens and lengthens steps.
@@ -308,14 +299,12 @@ impl Stepper {
         let mut units = self.lengthened(sim, nominal, self.units_of(sim.last_step().step_s), units_left);
         let mut advance = Advance { shortest_step_s: f64::INFINITY, ..Advance::default() };
         (self.start_strain, self.start_free_strain) = sim.largest_strains();
-        self.start_excess_strain = sim.excess_strain();
         while units_left > 0 {
             let h = self.seconds(units);
             sim.checkpoint(&mut self.checkpoint);
             match self.attempt(sim, h, nominal, units) {
                 Ok(report) => {
                     (self.start_strain, self.start_free_strain) = (report.max_strain, report.max_free_strain);
-                    self.start_excess_strain = report.excess_strain;
                     on_step(&report);
                     advance.steps += 1;
                     advance.shortest_step_s = advance.shortest_step_s.min(h);
@@ -390,6 +379,8 @@ impl Stepper {
     /// a nominal step, judged.
     fn attempt(&self, sim: &mut Simulator, h: f64, nominal: u64, units: u64) -> Result<StepReport, StepFailure> {
         let (before, settings) = (self.start_strain, &self.settings);
+        // Only a long step is judged by the strain past the limits.
+        let excess_before = if units > nominal { sim.excess_strain() } else { 0.0 };
         let report =
             sim.step(h).map_err(|StepError::NonFinite { particle, .. }| StepFailure::NonFinite { particle })?;
         if !report.solver.converged {
@@ -412,7 +403,7 @@ impl Stepper {
             if error_m > allowed_m {
                 return Err(StepFailure::Inaccurate { error_m, allowed_m });
             }
-            let (before, after) = (self.start_excess_strain, report.excess_strain);
+            let (before, after) = (excess_before, sim.excess_strain());
             if after > before.max(LONG_STEP_EXCESS_STRAIN) {
                 return Err(StepFailure::Overstretched { before, after });
             }

@@ -263,9 +263,6 @@ pub struct StepReport {
     pub max_free_strain: f64,
     /// Mean stretch-spring strain |l − l₀| / l₀ after the step.
     pub mean_strain: f64,
-    /// Largest strain beyond its limit of an edge the strain limits hold,
-    /// after the step, unitless (0 when all are within, or without limits).
-    pub excess_strain: f64,
     /// The inextensibility projection.
     pub projection: ProjectionReport,
     /// Particle-collider contacts handled.
@@ -1133,12 +1130,10 @@ impl Simulator {
         let (cloth, x, stretch) = (&self.cloth, &self.x, &self.stretch_springs);
         let total = parallel::sum(stretch.len(), &mut self.ws.partials, |k| spring_strain(cloth, x, stretch[k]).abs());
         report.mean_strain = total / stretch.len().max(1) as f64;
-        report.excess_strain = self.excess_strain();
     }
 
     /// Largest strain beyond its limit of an edge the strain limits hold
-    /// now, unitless (0 when all are within, or without limits): what
-    /// [`StepReport::excess_strain`] reports after a step.
+    /// now, unitless (0 when all are within, or without limits).
     pub fn excess_strain(&self) -> f64 {
         self.strain_limits.as_ref().map_or(0.0, |limits| limits.excess_strain(&self.x))
     }
