@@ -371,6 +371,10 @@ struct Workspace {
     /// them, for the rest of the step's rounds, so a zone cannot push them
     /// back in round after round.
     held: Vec<bool>,
+    /// Free particles that a crossing with a rigid kinematic point's
+    /// features has carried along with that point's motion: kinematic, with
+    /// it, for the rest of the step's rounds.
+    carried: Vec<Option<Placement>>,
     /// Keys of a detection's contacts.
     found: HashSet<[u32; 5]>,
     /// Indices into `contacts` of the eq. 16 constraint set of this pass.
@@ -601,6 +605,8 @@ impl CollisionPipeline {
         ws.pushed_off.resize(self.particles.len(), Vector3::zeros());
         ws.held.clear();
         ws.held.resize(cloth.start.len(), false);
+        ws.carried.clear();
+        ws.carried.resize(cloth.start.len(), None);
     }
 
     /// How far short of their thickness the contacts would end the step,

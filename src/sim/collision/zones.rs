@@ -1,25 +1,28 @@
 //! The fail-safe: rigid impact zones (Provot 1997, Bridson et al. 2002).
 //! Points whose features still cross after the impulse passes are merged into
 //! zones that move rigidly, or with the kinematic point they hold, until
-//! nothing crosses. A zone that holds kinematic points moving differently
-//! (pins turning against each other) has no rigid motion that follows them
-//! all; it moves with their motions blended by distance, rigid to within
-//! round-off near each group, and the free points that this step's
-//! crossings join move rigidly together inside it (the motion that best
-//! fits the blend over them), so features that cross because the blend
-//! moves their points unevenly are resolved as in a rigid zone. The zone as
-//! a whole is not rigid, so this is no proof that nothing crosses; it frees
-//! what following one group alone never could (BENCHMARKS, 2026-12-04
-//! evening). After each round the pass hook corrects the result (a
-//! point a zone carried into an analytic collider is moved out); a point it
-//! moves is held on that path, kinematic, for the rest of the step, so the
+//! nothing crosses. A crossing between free points and rigid kinematic points
+//! that all move alike (a pinned ring's edge, a collider's face) carries its
+//! free points with that motion at once: kinematic, with it, for the rest of
+//! the step, as a rigid zone would move them. A zone that holds kinematic
+//! points moving differently (pins turning against each other) has no rigid
+//! motion that follows them all; it moves with their motions blended by
+//! distance, rigid to within round-off near each group, and the free points
+//! that this step's crossings join move rigidly together inside it (the
+//! motion that best fits the blend over them), so features that cross
+//! because the blend moves their points unevenly are resolved as in a rigid
+//! zone. The zone as a whole is not rigid, so this is no proof that nothing
+//! crosses; it frees what following one group alone never could (BENCHMARKS,
+//! 2026-12-04 evening). After each round the pass hook corrects the result
+//! (a point a zone carried into an analytic collider is moved out); a point
+//! it moves is held on that path, kinematic, for the rest of the step, so the
 //! next rounds move its zone around it instead of back into the collider.
 
 use std::time::Instant;
 
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-use super::detect::{Detection, Scope};
+use super::detect::Detection;
 use super::response::{Points, PrescribedEnd, rigidify};
 use super::{CollisionPipeline, CollisionReport, Kinematic, PassHook, ResponseStage};
 use crate::sim::contact::StepWindow;
@@ -42,12 +45,11 @@ impl CollisionPipeline {
         let mut round = 0;
         loop {
             // The first round follows the impulse passes' last (proximity)
-            // detection; later ones the zones' own moves.
-            if round == 0 {
-                self.detect_again(Detection::Crossings, report);
-            } else {
-                self.detect(Detection::Crossings, Scope::Moved, report);
-            }
+            // detection, later ones the zones' own moves; either way the
+            // contacts none of whose points moved since are tested again (a
+            // crossing between kinematic points moves in no round, and would
+            // otherwise drop out of the list while it still crosses).
+            self.detect_again(Detection::Crossings, report);
             let crossings = std::mem::take(&mut self.ws.contacts);
             if crossings.is_empty() || round == self.settings.zone_rounds {
                 let left = crossings.len() as u32;
@@ -62,7 +64,7 @@ impl CollisionPipeline {
                         self.ws.zones.join(c.nodes[0], c.nodes[k]);
                     }
                 }
-                self.join_free_points(c);
+                self.carry_or_join(c, window);
             }
             self.group_zones(&crossings);
             let mut start = 0;
@@ -125,15 +127,36 @@ impl CollisionPipeline {
         }
     }
 
-    /// Joins the free points of crossing `c` in the inner zones.
-    fn join_free_points(&mut self, c: &super::response::Contact) {
+    /// Carries the free points of crossing `c` with its prescribed points
+    /// ([`Self::prescribed`]) if it has some and they all move with one
+    /// rigid motion over `window`, else joins them in the inner zones. Any
+    /// zone holding the crossing could only move them with that motion;
+    /// made kinematic, they can no longer be pulled off it by a blended
+    /// zone's rigid group (a ring's first row dragged back by a group
+    /// reaching the tube's middle left the wrung `twist` crossing its own
+    /// ring at 2.75 s).
+    fn carry_or_join(&mut self, c: &super::response::Contact, window: StepWindow) {
+        let points: Vec<u32> = (0..4).filter(|&k| c.hit.weights[k] != 0.0).map(|k| c.nodes[k]).collect();
+        let kinematic: Vec<(u32, Kinematic)> = points.iter().filter_map(|&i| Some((i, self.prescribed(i)?))).collect();
+        let rigid = kinematic.iter().all(|(_, k)| matches!(k, Kinematic::Rigid(_)));
         let ws = &mut self.ws;
-        let mut free = (0..4).filter(|&k| c.hit.weights[k] != 0.0).map(|k| c.nodes[k]);
-        let free_first = free.by_ref().find(|&i| ws.inverse_mass[i as usize] > 0.0);
-        if let Some(first) = free_first {
-            for i in free.filter(|&i| ws.inverse_mass[i as usize] > 0.0) {
-                ws.inner_zones.join(first, i);
+        let free: Vec<usize> = points.iter().map(|&i| i as usize).filter(|&i| ws.inverse_mass[i] > 0.0).collect();
+        if rigid && let Some(&(_, Kinematic::Rigid(placement))) = kinematic.first() {
+            let mut moves = rigid_moves(&kinematic, &ws.start, window);
+            if moves.len() == 1 {
+                let step = moves.remove(0).step;
+                for i in free {
+                    ws.carried[i] = Some(placement);
+                    ws.inverse_mass[i] = 0.0;
+                    ws.end[i] = (step * Point3::from(ws.start[i])).coords;
+                    ws.velocity[i] = (ws.end[i] - ws.start[i]) / window.h();
+                    ws.moved[i] = true;
+                }
+                return;
             }
+        }
+        for pair in free.windows(2) {
+            ws.inner_zones.join(pair[0] as u32, pair[1] as u32);
         }
     }
 
@@ -185,12 +208,24 @@ impl CollisionPipeline {
         ws.zone_members.sort_unstable();
     }
 
-    /// The prescribed motion of point `i`, if it has one (pinned particle,
-    /// obstacle vertex, or a particle the pass hook moved after a round,
-    /// held on its start-to-end path).
+    /// The kinematic motion of point `i` this round, if it has one (pinned
+    /// particle, obstacle vertex, a particle the pass hook moved after a
+    /// round, held on its start-to-end path, or one a crossing carried
+    /// along with a rigid prescribed motion).
     fn kinematic(&self, i: u32) -> Option<Kinematic> {
         match self.particles.get(i as usize) {
             Some(_) if self.ws.held[i as usize] => Some(Kinematic::Deforming),
+            Some(_) if let Some(placement) = self.ws.carried[i as usize] => Some(Kinematic::Rigid(placement)),
+            _ => self.prescribed(i),
+        }
+    }
+
+    /// The motion that the scene prescribes for point `i`, if any: a pinned
+    /// particle's, or an obstacle vertex's. Only these carry a crossing's
+    /// free points along: a carried point carries no other, so chains of
+    /// crossings cannot carry the middle of a wrung tube with both rings.
+    fn prescribed(&self, i: u32) -> Option<Kinematic> {
+        match self.particles.get(i as usize) {
             Some(p) => p.pinned,
             None => {
                 let o = &self.obstacles;
@@ -327,6 +362,8 @@ fn rigid_fit(pairs: impl Iterator<Item = (Vector3<f64>, Vector3<f64>)> + Clone) 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::collision::ccd::Hit;
+    use crate::sim::collision::response::{Contact, ContactKind};
     use crate::sim::motion::{Placement, RigidMotion};
 
     #[test]
@@ -394,9 +431,9 @@ mod tests {
         assert_eq!(blended_end(&[], &Vector3::x()), Vector3::x());
     }
 
-    /// A flat 3 × 3 cloth (1 cm apart, one pinned corner) loaded for a
-    /// step of `h`, every point in one zone.
-    fn one_zone(h: f64) -> CollisionPipeline {
+    /// A flat 3 × 3 cloth (1 cm apart, its corner 0 pinned with `pin`)
+    /// loaded for a step of `h`, every point in one zone.
+    fn one_zone_pinned(h: f64, pin: Placement) -> CollisionPipeline {
         use crate::mesh::generate;
         use crate::sim::collision::obstacles::{ClothScale, Obstacles};
         use crate::sim::collision::{ClothState, CollisionSettings, ParticleCollision};
@@ -404,7 +441,7 @@ mod tests {
         let start = grid.positions.clone();
         let (mut end, mut velocity) = (start.clone(), vec![Vector3::zeros(); start.len()]);
         let mut particles = vec![ParticleCollision { thickness: 0.002, friction: 0.0, pinned: None }; start.len()];
-        particles[0].pinned = Some(Kinematic::Rigid(still(Vector3::zeros())));
+        particles[0].pinned = Some(Kinematic::Rigid(pin));
         let scale = ClothScale { longest_edge_m: 0.01, thinnest_m: 0.002 };
         let obstacles = Obstacles::new(&[], &[], scale);
         let mut pipeline = CollisionPipeline::new(
@@ -422,6 +459,106 @@ mod tests {
         pipeline.ws.zone_members = (0..start.len() as u32).map(|i| (0, i)).collect();
         pipeline.ws.inner_zones.reset(start.len());
         pipeline
+    }
+
+    /// [`one_zone_pinned`] with a still pin.
+    fn one_zone(h: f64) -> CollisionPipeline {
+        one_zone_pinned(h, still(Vector3::zeros()))
+    }
+
+    /// An edge-edge crossing of `nodes` halfway along both edges.
+    fn crossing(nodes: [u32; 4]) -> Contact {
+        let hit = Hit {
+            time: 0.5,
+            weights: [0.5, 0.5, -0.5, -0.5],
+            normal: Vector3::z(),
+            start_distance: 1e-4,
+            crossing: true,
+        };
+        Contact { kind: ContactKind::EdgeEdge, nodes, hit, thickness: 0.002, friction: 0.0 }
+    }
+
+    #[test]
+    fn a_crossing_with_a_turning_pin_carries_its_free_points_with_the_pin() {
+        let h = 0.01;
+        let pin = turning(Vector3::zeros(), 180.0);
+        let mut pipeline = one_zone_pinned(h, pin);
+        let window = StepWindow { t0: 0.0, t1: h };
+        let step = pin.world_from_local(h) * pin.world_from_local(0.0).inverse();
+        pipeline.carry_or_join(&crossing([0, 7, 1, 6]), window);
+        let ws = &pipeline.ws;
+        for i in [1usize, 6, 7] {
+            assert_ne!(ws.start[i].z, 0.0, "point {i} is off the pin's axis");
+            assert_eq!(ws.end[i], (step * Point3::from(ws.start[i])).coords, "point {i} turns with the pin");
+            assert!((ws.velocity[i] - (ws.end[i] - ws.start[i]) / h).norm() < 1e-12);
+            assert!(ws.moved[i] && ws.inverse_mass[i] == 0.0);
+            assert_eq!(pipeline.kinematic(i as u32), Some(Kinematic::Rigid(pin)), "and is kinematic with it");
+        }
+        // A crossing of free points alone joins them, carrying nothing.
+        pipeline.carry_or_join(&crossing([3, 4, 5, 2]), window);
+        let ws = &mut pipeline.ws;
+        assert!([3usize, 4, 5, 2].iter().all(|&i| ws.inverse_mass[i] > 0.0 && !ws.moved[i]));
+        let root = ws.inner_zones.find(3);
+        assert!([4, 5, 2].iter().all(|&i| ws.inner_zones.find(i) == root));
+        assert_ne!(ws.inner_zones.find(8), root);
+    }
+
+    #[test]
+    fn a_crossing_with_pins_moving_apart_carries_nothing() {
+        let h = 0.01;
+        let mut pipeline = one_zone_pinned(h, turning(Vector3::zeros(), 180.0));
+        pipeline.particles[8].pinned = Some(Kinematic::Rigid(turning(Vector3::zeros(), -180.0)));
+        pipeline.ws.inverse_mass[8] = 0.0;
+        pipeline.carry_or_join(&crossing([0, 4, 5, 8]), StepWindow { t0: 0.0, t1: h });
+        let ws = &mut pipeline.ws;
+        assert!(!ws.moved[4] && !ws.moved[5] && ws.inverse_mass[4] > 0.0);
+        assert_eq!(ws.inner_zones.find(4), ws.inner_zones.find(5), "its free points are joined");
+    }
+
+    /// Two triangles whose points a zone already carries with two motions,
+    /// one passing down through the other: no zone can move them, so every
+    /// round finds the crossing again, and it is reported left at the end.
+    #[test]
+    fn a_crossing_no_zone_can_move_is_reported_to_the_end() {
+        use crate::sim::collision::obstacles::{ClothScale, Obstacles};
+        use crate::sim::collision::{ClothState, CollisionSettings, ParticleCollision};
+        let (h, drop) = (0.01, Vector3::new(0.0, -0.1, 0.0));
+        let fixed = [Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.1, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.1)];
+        // Its lowest corner drops through the fixed one's inside.
+        let sinking = [Vector3::new(0.02, 0.05, 0.02), Vector3::new(0.03, 0.08, 0.02), Vector3::new(0.02, 0.08, 0.03)];
+        let start: Vec<Vector3<f64>> = fixed.iter().chain(&sinking).copied().collect();
+        let mut end: Vec<Vector3<f64>> =
+            start.iter().enumerate().map(|(i, p)| if i < 3 { *p } else { p + drop }).collect();
+        let mut velocity: Vec<Vector3<f64>> = start.iter().zip(&end).map(|(a, b)| (b - a) / h).collect();
+        let motion = RigidMotion {
+            velocity: drop / h,
+            angular_velocity: Vector3::zeros(),
+            pivot: Vector3::zeros(),
+            start: 0.0,
+            end: f64::INFINITY,
+        };
+        let falling = Placement { rest_pose: Isometry3::identity(), motion: Some(motion) };
+        let particles = vec![ParticleCollision { thickness: 0.002, friction: 0.0, pinned: None }; 6];
+        let scale = ClothScale { longest_edge_m: 0.15, thinnest_m: 0.002 };
+        let obstacles = Obstacles::new(&[], &[], scale);
+        let settings = CollisionSettings::default();
+        let mut pipeline =
+            CollisionPipeline::new(vec![[0, 1, 2], [3, 4, 5]], vec![0; 2], vec![true], particles, obstacles, settings)
+                .expect("a self-colliding cloth has a pipeline");
+        let mass = vec![1e-3; start.len()];
+        let window = StepWindow { t0: 0.0, t1: h };
+        let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
+        pipeline.load(&cloth, window);
+        for i in 0..6 {
+            pipeline.ws.carried[i] = Some(if i < 3 { still(Vector3::zeros()) } else { falling });
+            pipeline.ws.inverse_mass[i] = 0.0;
+            pipeline.ws.moved[i] = true;
+        }
+        let mut report = CollisionReport::default();
+        let (rounds, left) = pipeline.impact_zones(window, &mut |_| false, &mut report);
+        assert_eq!(rounds, pipeline.settings.zone_rounds, "every round found it");
+        assert!(left > 0, "and it is reported left");
+        assert_eq!(&pipeline.ws.end[3..], &start[3..].iter().map(|p| p + drop).collect::<Vec<_>>()[..]);
     }
 
     #[test]
