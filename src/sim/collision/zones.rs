@@ -2,20 +2,22 @@
 //! Points whose features still cross after the impulse passes are merged into
 //! zones that move rigidly, or with the kinematic point they hold, until
 //! nothing crosses. A crossing between free points and rigid kinematic points
-//! that all move alike (a pinned ring's edge, a collider's face) carries its
-//! free points with that motion at once: kinematic, with it, for the rest of
-//! the step, as a rigid zone would move them. A zone that holds kinematic
-//! points moving differently (pins turning against each other) has no rigid
-//! motion that follows them all; it moves with their motions blended by
-//! distance, rigid to within round-off near each group, and the free points
-//! that this step's crossings join move rigidly together inside it (the
-//! motion that best fits the blend over them), so features that cross
-//! because the blend moves their points unevenly are resolved as in a rigid
-//! zone. The zone as a whole is not rigid, so this is no proof that nothing
-//! crosses; it frees what following one group alone never could (BENCHMARKS,
-//! 2026-12-04 evening). After each round the pass hook corrects the result
-//! (a point a zone carried into an analytic collider is moved out); a point
-//! it moves is held on that path, kinematic, for the rest of the step, so the
+//! that all move alike (a pinned ring's edge, a collider's face, points
+//! already carried) carries its free points with that motion at once:
+//! kinematic, with it, for the rest of the step, as a rigid zone would move
+//! them. A zone that holds kinematic points moving differently (pins turning
+//! against each other) has no rigid motion that follows them all; it moves
+//! with their motions blended by distance, rigid to within round-off near
+//! each group, and the free points that this step's crossings join move
+//! rigidly together inside it (the motion that best fits the blend over
+//! them), so features that cross because the blend moves their points
+//! unevenly are resolved as in a rigid zone. The zone as a whole is not
+//! rigid, so this is no proof that nothing crosses; it frees what following
+//! one group alone never could (BENCHMARKS, 2026-12-04 evening). Every round
+//! tests again the crossings whose points it could not move, so what is
+//! left is reported. After each round the pass hook corrects the result (a
+//! point a zone carried into an analytic collider is moved out); a point it
+//! moves is held on that path, kinematic, for the rest of the step, so the
 //! next rounds move its zone around it instead of back into the collider.
 
 use std::time::Instant;
@@ -127,17 +129,19 @@ impl CollisionPipeline {
         }
     }
 
-    /// Carries the free points of crossing `c` with its prescribed points
-    /// ([`Self::prescribed`]) if it has some and they all move with one
-    /// rigid motion over `window`, else joins them in the inner zones. Any
-    /// zone holding the crossing could only move them with that motion;
-    /// made kinematic, they can no longer be pulled off it by a blended
-    /// zone's rigid group (a ring's first row dragged back by a group
-    /// reaching the tube's middle left the wrung `twist` crossing its own
-    /// ring at 2.75 s).
+    /// Carries the free points of crossing `c` with its kinematic points if
+    /// it has some and they all move with one rigid motion over `window`,
+    /// else joins them in the inner zones. Any zone holding the crossing
+    /// could only move them with that motion; made kinematic, they can no
+    /// longer be pulled off it by a blended zone's rigid group (a ring's
+    /// first row dragged back by a group reaching the tube's middle left the
+    /// wrung `twist` crossing its own ring at 2.75 s). Carried points carry
+    /// in turn (the rows a ring has wrung onto each other follow it
+    /// together); where the points carried by two rings cross, no zone can
+    /// move them, and the crossing is reported left.
     fn carry_or_join(&mut self, c: &super::response::Contact, window: StepWindow) {
         let points: Vec<u32> = (0..4).filter(|&k| c.hit.weights[k] != 0.0).map(|k| c.nodes[k]).collect();
-        let kinematic: Vec<(u32, Kinematic)> = points.iter().filter_map(|&i| Some((i, self.prescribed(i)?))).collect();
+        let kinematic: Vec<(u32, Kinematic)> = points.iter().filter_map(|&i| Some((i, self.kinematic(i)?))).collect();
         let rigid = kinematic.iter().all(|(_, k)| matches!(k, Kinematic::Rigid(_)));
         let ws = &mut self.ws;
         let free: Vec<usize> = points.iter().map(|&i| i as usize).filter(|&i| ws.inverse_mass[i] > 0.0).collect();
@@ -211,21 +215,11 @@ impl CollisionPipeline {
     /// The kinematic motion of point `i` this round, if it has one (pinned
     /// particle, obstacle vertex, a particle the pass hook moved after a
     /// round, held on its start-to-end path, or one a crossing carried
-    /// along with a rigid prescribed motion).
+    /// along with a rigid motion).
     fn kinematic(&self, i: u32) -> Option<Kinematic> {
         match self.particles.get(i as usize) {
             Some(_) if self.ws.held[i as usize] => Some(Kinematic::Deforming),
             Some(_) if let Some(placement) = self.ws.carried[i as usize] => Some(Kinematic::Rigid(placement)),
-            _ => self.prescribed(i),
-        }
-    }
-
-    /// The motion that the scene prescribes for point `i`, if any: a pinned
-    /// particle's, or an obstacle vertex's. Only these carry a crossing's
-    /// free points along: a carried point carries no other, so chains of
-    /// crossings cannot carry the middle of a wrung tube with both rings.
-    fn prescribed(&self, i: u32) -> Option<Kinematic> {
-        match self.particles.get(i as usize) {
             Some(p) => p.pinned,
             None => {
                 let o = &self.obstacles;
@@ -479,7 +473,7 @@ mod tests {
     }
 
     #[test]
-    fn a_crossing_with_a_turning_pin_carries_its_free_points_with_the_pin() {
+    fn a_crossing_with_a_turning_pin_carries_its_free_points_and_they_carry_in_turn() {
         let h = 0.01;
         let pin = turning(Vector3::zeros(), 180.0);
         let mut pipeline = one_zone_pinned(h, pin);
@@ -501,6 +495,13 @@ mod tests {
         let root = ws.inner_zones.find(3);
         assert!([4, 5, 2].iter().all(|&i| ws.inner_zones.find(i) == root));
         assert_ne!(ws.inner_zones.find(8), root);
+        // Carried points carry in turn.
+        pipeline.carry_or_join(&crossing([1, 8, 5, 2]), window);
+        for i in [2usize, 5, 8] {
+            let ws = &pipeline.ws;
+            assert_eq!(ws.end[i], (step * Point3::from(ws.start[i])).coords, "point {i} turns with the pin");
+            assert_eq!(pipeline.kinematic(i as u32), Some(Kinematic::Rigid(pin)));
+        }
     }
 
     #[test]
