@@ -366,15 +366,12 @@ struct Workspace {
     partners: partners::Partners,
     /// End positions before the pass hook, to see which it moved.
     before_hook: Vec<Vector3<f64>>,
-    /// Cloth points the pass hook moved after an impact-zone round (pushed
-    /// out of an analytic collider): kinematic, on the path the hook gave
-    /// them, for the rest of the step's rounds, so a zone cannot push them
-    /// back in round after round.
-    held: Vec<bool>,
-    /// Free particles that a crossing with a rigid kinematic point's
-    /// features has carried along with that point's motion: kinematic, with
-    /// it, for the rest of the step's rounds.
-    carried: Vec<Option<Placement>>,
+    /// Cloth points made kinematic for the rest of the step's rounds: moved
+    /// by the pass hook after an impact-zone round (pushed out of an
+    /// analytic collider), on the path it gave them (`Deforming`), so a zone
+    /// cannot push them back in round after round; or carried along by a
+    /// crossing with rigid kinematic points (`Rigid`, their motion).
+    held: Vec<Option<Kinematic>>,
     /// Keys of a detection's contacts.
     found: HashSet<[u32; 5]>,
     /// Indices into `contacts` of the eq. 16 constraint set of this pass.
@@ -552,7 +549,7 @@ impl CollisionPipeline {
                 if before != after {
                     ws.moved[i] = true;
                     if hold {
-                        ws.held[i] = true;
+                        ws.held[i] = Some(Kinematic::Deforming);
                         ws.inverse_mass[i] = 0.0;
                     }
                 }
@@ -604,9 +601,7 @@ impl CollisionPipeline {
         ws.pushed_off.clear();
         ws.pushed_off.resize(self.particles.len(), Vector3::zeros());
         ws.held.clear();
-        ws.held.resize(cloth.start.len(), false);
-        ws.carried.clear();
-        ws.carried.resize(cloth.start.len(), None);
+        ws.held.resize(cloth.start.len(), None);
     }
 
     /// How far short of their thickness the contacts would end the step,

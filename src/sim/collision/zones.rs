@@ -28,6 +28,7 @@ use super::detect::Detection;
 use super::response::{Points, PrescribedEnd, rigidify};
 use super::{CollisionPipeline, CollisionReport, Kinematic, PassHook, ResponseStage};
 use crate::sim::contact::StepWindow;
+use crate::sim::motion::Placement;
 
 impl CollisionPipeline {
     /// Rigid impact zones until nothing crosses (or the rounds run out), run
@@ -140,28 +141,54 @@ impl CollisionPipeline {
     /// together); where the points carried by two rings cross, no zone can
     /// move them, and the crossing is reported left.
     fn carry_or_join(&mut self, c: &super::response::Contact, window: StepWindow) {
-        let points: Vec<u32> = (0..4).filter(|&k| c.hit.weights[k] != 0.0).map(|k| c.nodes[k]).collect();
-        let kinematic: Vec<(u32, Kinematic)> = points.iter().filter_map(|&i| Some((i, self.kinematic(i)?))).collect();
-        let rigid = kinematic.iter().all(|(_, k)| matches!(k, Kinematic::Rigid(_)));
-        let ws = &mut self.ws;
-        let free: Vec<usize> = points.iter().map(|&i| i as usize).filter(|&i| ws.inverse_mass[i] > 0.0).collect();
-        if rigid && let Some(&(_, Kinematic::Rigid(placement))) = kinematic.first() {
-            let mut moves = rigid_moves(&kinematic, &ws.start, window);
-            if moves.len() == 1 {
-                let step = moves.remove(0).step;
-                for i in free {
-                    ws.carried[i] = Some(placement);
-                    ws.inverse_mass[i] = 0.0;
-                    ws.end[i] = (step * Point3::from(ws.start[i])).coords;
-                    ws.velocity[i] = (ws.end[i] - ws.start[i]) / window.h();
-                    ws.moved[i] = true;
+        let points = || (0..4).filter(|&k| c.hit.weights[k] != 0.0).map(|k| c.nodes[k] as usize);
+        if let Some((placement, step)) = self.common_rigid_motion(points(), window) {
+            let ws = &mut self.ws;
+            for i in points() {
+                if ws.inverse_mass[i] == 0.0 {
+                    continue;
                 }
-                return;
+                ws.held[i] = Some(Kinematic::Rigid(placement));
+                ws.inverse_mass[i] = 0.0;
+                ws.end[i] = (step * Point3::from(ws.start[i])).coords;
+                ws.velocity[i] = (ws.end[i] - ws.start[i]) / window.h();
+                ws.moved[i] = true;
+            }
+            return;
+        }
+        let ws = &mut self.ws;
+        let mut free = points().filter(|&i| ws.inverse_mass[i] > 0.0).map(|i| i as u32);
+        if let Some(first) = free.next() {
+            for i in free {
+                ws.inner_zones.join(first, i);
             }
         }
-        for pair in free.windows(2) {
-            ws.inner_zones.join(pair[0] as u32, pair[1] as u32);
+    }
+
+    /// The placement and step over `window` that every kinematic point
+    /// among `points` follows, if they have some and all move alike with
+    /// one rigid motion.
+    fn common_rigid_motion(
+        &self,
+        points: impl Iterator<Item = usize>,
+        window: StepWindow,
+    ) -> Option<(Placement, Isometry3<f64>)> {
+        let mut common: Option<(Placement, Isometry3<f64>)> = None;
+        for i in points {
+            match self.kinematic(i as u32) {
+                None => {}
+                Some(Kinematic::Deforming) => return None,
+                Some(Kinematic::Rigid(placement)) => {
+                    let step = step_over(&placement, window);
+                    match common {
+                        None => common = Some((placement, step)),
+                        Some((_, first)) if same_motion(&first, &step) => {}
+                        Some(_) => return None,
+                    }
+                }
+            }
         }
+        common
     }
 
     /// Moves the free points of the zone `zone_members[members]` as the
@@ -218,9 +245,7 @@ impl CollisionPipeline {
     /// along with a rigid motion).
     fn kinematic(&self, i: u32) -> Option<Kinematic> {
         match self.particles.get(i as usize) {
-            Some(_) if self.ws.held[i as usize] => Some(Kinematic::Deforming),
-            Some(_) if let Some(placement) = self.ws.carried[i as usize] => Some(Kinematic::Rigid(placement)),
-            Some(p) => p.pinned,
+            Some(p) => self.ws.held[i as usize].or(p.pinned),
             None => {
                 let o = &self.obstacles;
                 let body = &o.bodies[o.vertex_collider[i as usize - self.particles.len()] as usize];
@@ -288,17 +313,23 @@ fn rigid_moves(kinematic: &[(u32, Kinematic)], start: &[Vector3<f64>], window: S
     let mut moves: Vec<RigidMove> = Vec::new();
     for &(i, k) in kinematic {
         let Kinematic::Rigid(placement) = k else { continue };
-        let step = placement.world_from_local(window.t1) * placement.world_from_local(window.t0).inverse();
-        let same = |m: &&mut RigidMove| {
-            (m.step.translation.vector - step.translation.vector).norm() <= SAME_MOTION
-                && same_rotation(&m.step.rotation, &step.rotation)
-        };
-        match moves.iter_mut().find(same) {
+        let step = step_over(&placement, window);
+        match moves.iter_mut().find(|m| same_motion(&m.step, &step)) {
             Some(m) => m.starts.push(start[i as usize]),
             None => moves.push(RigidMove { step, starts: vec![start[i as usize]] }),
         }
     }
     moves
+}
+
+/// How `placement` moves its points from the start of `window` to its end.
+fn step_over(placement: &Placement, window: StepWindow) -> Isometry3<f64> {
+    placement.world_from_local(window.t1) * placement.world_from_local(window.t0).inverse()
+}
+
+/// Whether two steps are one motion, to within [`SAME_MOTION`].
+fn same_motion(a: &Isometry3<f64>, b: &Isometry3<f64>) -> bool {
+    (a.translation.vector - b.translation.vector).norm() <= SAME_MOTION && same_rotation(&a.rotation, &b.rotation)
 }
 
 /// Whether two rotations differ by less than [`SAME_MOTION`] (their unit
@@ -358,7 +389,7 @@ mod tests {
     use super::*;
     use crate::sim::collision::ccd::Hit;
     use crate::sim::collision::response::{Contact, ContactKind};
-    use crate::sim::motion::{Placement, RigidMotion};
+    use crate::sim::motion::RigidMotion;
 
     #[test]
     fn a_point_follows_the_nearest_anchor() {
@@ -551,7 +582,7 @@ mod tests {
         let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
         pipeline.load(&cloth, window);
         for i in 0..6 {
-            pipeline.ws.carried[i] = Some(if i < 3 { still(Vector3::zeros()) } else { falling });
+            pipeline.ws.held[i] = Some(Kinematic::Rigid(if i < 3 { still(Vector3::zeros()) } else { falling }));
             pipeline.ws.inverse_mass[i] = 0.0;
             pipeline.ws.moved[i] = true;
         }
