@@ -7,6 +7,8 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+mod cli;
+
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -119,15 +121,20 @@ enum Command {
         #[arg(long)]
         scene: Option<PathBuf>,
     },
-    /// Read a body (binary FBX 7.x) and report its mesh, skeleton and motion:
-    /// with --motion, how another file's motion fits this body's bones. Prints
-    /// the time to skin one frame.
+    /// Read a character (FBX 7, binary or ASCII) and report its meshes (skinned,
+    /// rigid or static), nodes, animation stacks and motion; with --motion, how
+    /// another file's motion fits this body's bones. A file without a mesh is
+    /// described as a motion. Prints the time to skin one frame.
     Body {
         /// The body's FBX file.
         body: PathBuf,
         /// Drive the body with this file's motion instead of its own.
         #[arg(long)]
         motion: Option<PathBuf>,
+        /// The animation stack to use (of the --motion file when given);
+        /// default: the first.
+        #[arg(long)]
+        stack: Option<String>,
     },
     /// Bake a body's motion into a binary motion cache (the skinned mesh frame
     /// by frame): simulating against it is then a copy per frame.
@@ -137,6 +144,10 @@ enum Command {
         /// Drive the body with this FBX file's motion (bones matched by name).
         #[arg(long)]
         motion: Option<PathBuf>,
+        /// The animation stack to use (of the --motion file when given);
+        /// default: the first.
+        #[arg(long)]
+        stack: Option<String>,
         /// Frames per second of the cache.
         #[arg(long, default_value_t = 30.0)]
         fps: f64,
@@ -269,7 +280,7 @@ fn without_display_server_probe() {
 }
 
 /// How a command failed, which decides the exit code.
-enum Failure {
+pub(crate) enum Failure {
     /// Bad input: a file, a value, an unwritable output (exit 1).
     Input(String),
     /// The simulation or the program failed (exit 2).
@@ -280,8 +291,18 @@ enum Failure {
     Found(String),
 }
 
+/// Ends the process quietly when its output is a pipe that closed
+/// (`drape body F | head -1`), as `cat` and `ls` do, instead of a panic
+/// from the print that could not be written.
+fn quiet_on_closed_pipe() {
+    // SAFETY: restoring the default disposition of one signal, before any
+    // other thread exists.
+    unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
+}
+
 fn main() -> ExitCode {
     without_display_server_probe();
+    quiet_on_closed_pipe();
     // A command line we cannot read is bad input (exit 1), like a bad file;
     // clap's own convention (2) would say the simulation failed.
     let cli = match Cli::try_parse() {
@@ -327,9 +348,9 @@ fn main() -> ExitCode {
             };
             run_fabric_fit(&measured, &base, name.as_deref(), across, &out)
         }
-        Command::Body { body, motion } => run_body(&body, motion.as_deref()),
-        Command::ImportMotion { body, motion, fps, cycle, out } => {
-            run_import_motion(&body, motion.as_deref(), fps, cycle, &out)
+        Command::Body { body, motion, stack } => cli::body::run_body(&body, motion.as_deref(), stack.as_deref()),
+        Command::ImportMotion { body, motion, stack, fps, cycle, out } => {
+            cli::body::run_import_motion(&body, motion.as_deref(), stack.as_deref(), fps, cycle, &out)
         }
         Command::Render { source, out, frames, light, size, turntable, scene } => {
             let request = RenderRequest { frames, light, size, turntable, scene };
@@ -357,7 +378,7 @@ fn main() -> ExitCode {
     }
 }
 
-fn input(e: impl std::fmt::Display) -> Failure {
+pub(crate) fn input(e: impl std::fmt::Display) -> Failure {
     Failure::Input(e.to_string())
 }
 
@@ -698,119 +719,6 @@ fn run_render(source: &Path, out: &Path, request: &RenderRequest) -> Result<(), 
         out.display(),
         bake::summary::median(&times_ms),
         gpu.adapter_name,
-    );
-    Ok(())
-}
-
-/// The animation of an FBX file, for `--motion`.
-fn motion_of(path: &Path) -> Result<drape::body::motion::Motion, Failure> {
-    let source = drape::io::fbx::read_fbx(path).map_err(input)?;
-    source.motion.ok_or_else(|| Failure::Input(format!("{} has no animation", path.display())))
-}
-
-fn run_body(path: &Path, motion_path: Option<&Path>) -> Result<(), Failure> {
-    use drape::io::fbx::read_fbx;
-    let body = read_fbx(path).map_err(input)?;
-    let (low, high) = body.mesh.bounds().unwrap_or_default();
-    println!(
-        "{}: {} vertices, {} triangles, {} bones, {:.2} m tall",
-        path.display(),
-        body.mesh.vertex_count(),
-        body.mesh.triangles.len(),
-        body.skeleton.bones.len(),
-        high.y - low.y
-    );
-    let motion = match motion_path {
-        Some(other) => motion_of(other)?,
-        None => match body.motion.clone() {
-            Some(m) => m,
-            None => {
-                println!("no animation: a static body");
-                return Ok(());
-            }
-        },
-    };
-    let matched = motion.bone_match(&body.skeleton);
-    println!(
-        "motion: {:.2} s, {} animated bones, {} found in this body",
-        motion.duration_s(),
-        motion.bones.len(),
-        matched.matched.len()
-    );
-    if !matched.is_complete() {
-        println!("bones of the motion this body lacks (not moved): {}", matched.missing_in_skeleton.join(", "));
-    }
-    let frames = (motion.duration_s() * 30.0).floor() as usize + 1;
-    let mut posed = Vec::new();
-    let mut times_ms = Vec::with_capacity(frames);
-    for frame in 0..frames {
-        let started = std::time::Instant::now();
-        body.pose_into(&motion, frame as f64 / 30.0, &mut posed);
-        times_ms.push(started.elapsed().as_secs_f64() * 1e3);
-    }
-    println!(
-        "skinning: median {:.3} ms per frame over {frames} frames at 30 fps, {} threads",
-        bake::summary::median(&times_ms),
-        rayon::current_num_threads()
-    );
-    Ok(())
-}
-
-fn run_import_motion(
-    path: &Path,
-    motion_path: Option<&Path>,
-    fps: f64,
-    cycle: bool,
-    out: &Path,
-) -> Result<(), Failure> {
-    use drape::io::fbx::read_fbx;
-    use drape::io::motion_cache::{MotionCache, write_motion_cache};
-    use drape::sim::vertex_animation::VertexAnimation;
-    if !(fps.is_finite() && (1.0..=1000.0).contains(&fps)) {
-        return Err(Failure::Input(format!("--fps {fps}: expected 1 to 1000 frames per second")));
-    }
-    let body = read_fbx(path).map_err(input)?;
-    let motion = match motion_path {
-        Some(other) => motion_of(other)?,
-        None => body.motion.clone().ok_or_else(|| Failure::Input(format!("{} has no animation", path.display())))?,
-    };
-    let matched = motion.bone_match(&body.skeleton);
-    if !matched.is_complete() {
-        eprintln!(
-            "warning: bones of the motion this body lacks (not moved): {}",
-            matched.missing_in_skeleton.join(", ")
-        );
-    }
-    let frames = (motion.duration_s() * fps).floor() as usize + 1;
-    let mut posed = Vec::new();
-    let started = std::time::Instant::now();
-    let frames: Vec<_> = (0..frames)
-        .map(|f| {
-            body.pose_into(&motion, f as f64 / fps, &mut posed);
-            posed.clone()
-        })
-        .collect();
-    let seconds = started.elapsed().as_secs_f64();
-    let count = frames.len();
-    let cache = MotionCache {
-        triangles: body.mesh.triangles.clone(),
-        animation: VertexAnimation { fps, start_s: 0.0, frames, cycle, lead_in: 0 },
-    };
-    write_motion_cache(out, &cache).map_err(input)?;
-    // Read it back as a scene would, and time a frame's load (a copy).
-    let loaded = drape::io::motion_cache::read_motion_cache(out).map_err(input)?;
-    let started = std::time::Instant::now();
-    let mut frame = Vec::new();
-    for f in 0..count {
-        loaded.animation.positions_at(f as f64 / fps, &mut frame);
-    }
-    let load_ms = started.elapsed().as_secs_f64() * 1e3 / count.max(1) as f64;
-    println!(
-        "{count} frames of {} vertices at {fps} fps in {} ({:.2} ms per frame to skin, {:.3} ms to load a cached frame)",
-        body.mesh.vertex_count(),
-        out.display(),
-        seconds * 1e3 / count.max(1) as f64,
-        load_ms
     );
     Ok(())
 }

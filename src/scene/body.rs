@@ -8,7 +8,7 @@ use nalgebra::{Isometry3, Translation3, Vector3};
 
 use super::file::BodySpec;
 use crate::body::Body;
-use crate::io::fbx::{FbxError, read_fbx};
+use crate::io::fbx::{BodyOptions, FbxError, read_body, read_motion};
 use crate::io::motion_cache::{MotionCacheError, read_motion_cache};
 use crate::mesh::Surface;
 use crate::sim::collision::obstacles::MeshCollider;
@@ -63,8 +63,10 @@ pub fn load_body(
     };
     let is_cache = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("motion"));
     let (triangles, animation, bind, surface, unmatched) = if is_cache {
-        if spec.motion.is_some() || spec.blend_in_s > 0.0 || spec.speed != 1.0 {
-            let why = "a motion cache is already posed: `motion`, `blend_in_s` and `speed` apply to FBX bodies";
+        let fbx_only = spec.parts.is_some() || !spec.exclude.is_empty() || spec.stack.is_some();
+        if spec.motion.is_some() || spec.blend_in_s > 0.0 || spec.speed != 1.0 || fbx_only {
+            let why = "a motion cache is already posed: `motion`, `stack`, `parts`, `exclude`, `blend_in_s` and \
+                       `speed` apply to FBX bodies";
             return Err(BodyError::Invalid(why.into()));
         }
         let cache = read_motion_cache(&path)?;
@@ -73,10 +75,15 @@ pub fn load_body(
         animation.cycle = spec.cycle;
         (cache.triangles, Some(animation), Vec::new(), Surface::default(), Vec::new())
     } else {
-        let body = read_fbx(&path)?;
+        let options = BodyOptions {
+            parts: spec.parts.clone(),
+            exclude: spec.exclude.clone(),
+            stack: spec.stack.clone().filter(|_| spec.motion.is_none()),
+        };
+        let body = read_body(&path, &options)?;
         let motion = match &spec.motion {
             Some(other) => {
-                let source = read_fbx(&base_dir.join(other))?;
+                let source = read_motion(&base_dir.join(other), spec.stack.as_deref())?;
                 Some(source.motion.ok_or_else(|| {
                     BodyError::Invalid(format!("{} has no animation to reuse", base_dir.join(other).display()))
                 })?)

@@ -74,13 +74,25 @@ pub struct BodySpec {
     /// Name, for reports and `attach = "..."` pins.
     #[serde(default = "default_body_name")]
     pub name: String,
-    /// The body: a binary FBX with its skin and animation, or a `.motion`
-    /// cache made by `drape import-motion`; relative to the scene file.
+    /// The body: an FBX (binary or ASCII) with its meshes, skins and
+    /// animation, or a `.motion` cache made by `drape import-motion`;
+    /// relative to the scene file.
     pub file: PathBuf,
+    /// Keep only the FBX's meshes of these names (default: every mesh).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parts: Option<Vec<String>>,
+    /// Leave out the FBX's meshes of these names (eyes, hair...).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exclude: Vec<String>,
     /// Drive the FBX body with this FBX file's motion instead of its own
-    /// (motion reuse: bones are matched by name).
+    /// (motion reuse: bones are matched by name); it may hold no mesh (a
+    /// motion library, a Mixamo animation downloaded without skin).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motion: Option<PathBuf>,
+    /// The animation stack to play, by name (of `motion` when given);
+    /// default: the file's first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stack: Option<String>,
     /// Seconds into the motion when it starts playing.
     #[serde(default)]
     pub start_s: f64,

@@ -1,75 +1,147 @@
-//! From an FBX document to a [`Body`]: the mesh, the bones above its skin
-//! clusters, the clusters' weights and bind matrices, the animation curves,
-//! and the global axes and units.
+//! From an FBX 7 document to a [`Body`]: every Model as a node of one
+//! hierarchy (parents first, file order otherwise), every mesh as a part
+//! with its geometric transform, skin and blend shapes, the chosen
+//! animation stack, and the global axes and units.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
-use fbxcel_dom::v7400::Document;
-use fbxcel_dom::v7400::object::ObjectHandle;
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
-use super::nodes::{child_string, float_array, int_array, number_property, vector_property};
-use crate::body::Body;
-use crate::body::curve::{Curve, Interpolation};
-use crate::body::motion::{BoneChannels, Motion, skeleton_height};
+use super::animation::{self, Targets};
+use super::deformers::{matrix, shape_channels, skin, stored_skin, vertex_cache};
+use super::document::{Document, Object};
+use super::geometry::{self, Geometry};
+use crate::body::motion::{Motion, skeleton_height};
 use crate::body::skeleton::{Bone, Skeleton};
-use crate::body::skin::{Skin, strongest_influences};
-use crate::body::transform::{EulerOrder, NodeTransform};
-use crate::mesh::{Material, Part, Surface, TriMesh};
+use crate::body::transform::{EulerOrder, Inherit, NodeTransform, geometric_matrix};
+use crate::body::{Body, BodyPart, PartKind, Polygons, StackSummary};
+use crate::mesh::{Material, Part, TriMesh};
 
-/// FBX time unit: ticks per second.
-const TICKS_PER_SECOND: f64 = 46_186_158_000.0;
-/// Most vertices, polygon corners or keys accepted from one array (a guard
-/// against absurd files, far above any body).
-const MAX_ARRAY: usize = 50_000_000;
-
-/// The objects of one node type, by id.
-fn objects_named<'a>(document: &'a Document, node_name: &str) -> Vec<ObjectHandle<'a>> {
-    document.objects().filter(|o| o.node().name() == node_name).collect()
+/// Which parts and which animation of a file make the body.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BodyOptions {
+    /// Keep only the meshes of these names (all when `None`).
+    pub parts: Option<Vec<String>>,
+    /// Drop the meshes of these names.
+    pub exclude: Vec<String>,
+    /// The animation stack by name (the file's first when `None`).
+    pub stack: Option<String>,
 }
 
-/// Objects connected to `object` as sources (its children in FBX terms), with labels.
-fn sources<'a>(object: &ObjectHandle<'a>) -> Vec<(ObjectHandle<'a>, Option<&'a str>)> {
-    object.source_objects().filter_map(|c| Some((c.object_handle()?, c.label()))).collect()
+/// Why a document does not make a body.
+#[derive(Debug, PartialEq)]
+pub enum Problem {
+    /// No Model holds a polygon mesh.
+    NoMesh,
+    /// A vertex cache drives mesh `mesh`.
+    VertexCache {
+        /// The mesh's name.
+        mesh: String,
+        /// The cache file as the FBX names it.
+        cache: String,
+    },
+    /// Anything else, said in words.
+    Content(String),
 }
 
-/// Objects `object` is connected to (its parents in FBX terms).
-fn destinations<'a>(object: &ObjectHandle<'a>) -> Vec<ObjectHandle<'a>> {
-    object.destination_objects().filter_map(|c| c.object_handle()).collect()
+impl From<String> for Problem {
+    fn from(problem: String) -> Problem {
+        Problem::Content(problem)
+    }
 }
 
-fn id(object: &ObjectHandle<'_>) -> i64 {
-    object.object_id().raw()
+/// The file's nodes as a skeleton, and each Model id's bone index.
+pub struct Hierarchy {
+    /// Every Model, parents first.
+    pub skeleton: Skeleton,
+    /// The bone index of each Model id.
+    pub bone_of: BTreeMap<i64, usize>,
 }
 
 /// Builds the body of `document`.
-pub fn body(document: &Document, name: String) -> Result<Body, String> {
+pub fn body(document: &Document, name: String, options: &BodyOptions) -> Result<Body, Problem> {
     let (world_from_file, up_in_file) = axes_and_units(document);
-    let (model, geometry) = skinned_mesh(document)?;
-    let MeshData { positions, triangles, surface } = read_geometry(&geometry, &model)?;
-    let clusters = clusters_of(&geometry);
-    let (mut skeleton, bone_of_model) = skeleton_of(&clusters, &model)?;
-    rest_at_bind(document, &mut skeleton, &bone_of_model, &clusters);
-    let skin = skin_of(&clusters, &bone_of_model, &skeleton, positions)?;
-    let motion = animation(document, &skeleton, &bone_of_model, &up_in_file)?;
-    let mut body = Body {
-        name,
-        mesh: TriMesh { positions: Vec::new(), triangles, quads: Vec::new(), surface },
-        skeleton,
-        skin,
-        motion,
-        world_from_file,
-        up_in_file,
-    };
+    let mut hierarchy = hierarchy(document)?;
+    let meshes = mesh_models(document);
+    if meshes.is_empty() {
+        return Err(Problem::NoMesh);
+    }
+    let kept = kept_meshes(&meshes, options)?;
+    set_bind_matrices(document, &mut hierarchy);
+    let height = skeleton_height(&hierarchy.skeleton, &up_in_file);
+    let motion = chosen_motion(document, &hierarchy, options.stack.as_deref(), height)?;
+    let application = application(document);
+    let mut parts = Vec::new();
+    let mut mesh = TriMesh::default();
+    for (model, geometry_object, geometry) in kept {
+        if let Some(cache) = vertex_cache(document, geometry_object) {
+            return Err(Problem::VertexCache { mesh: model.name.clone(), cache });
+        }
+        let part = part(document, &hierarchy, model, geometry_object, &geometry, mesh.vertex_count(), &application)?;
+        append_mesh(&mut mesh, &geometry, &materials_of(document, model));
+        parts.push(part);
+    }
+    mark_kinds(&mut parts, &hierarchy.skeleton, motion.as_ref());
+    if world_from_file.fixed_view::<3, 3>(0, 0).determinant() < 0.0 {
+        mesh.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        mesh.surface.triangle_uvs.iter_mut().for_each(|t| t.swap(1, 2));
+    }
+    let stacks = stack_summaries(document);
+    let source = describe(document, &application);
+    let mut body =
+        Body { name, source, mesh, skeleton: hierarchy.skeleton, parts, motion, stacks, world_from_file, up_in_file };
     body.mesh.positions = body.bind_pose();
     Ok(body)
 }
 
+/// The skeleton and motion of a file that may hold no mesh (a motion library).
+pub fn skeleton_and_motion(
+    document: &Document,
+    stack: Option<&str>,
+) -> Result<(Skeleton, Option<Motion>, Vec<StackSummary>), String> {
+    let (_, up_in_file) = axes_and_units(document);
+    let mut hierarchy = hierarchy(document)?;
+    set_bind_matrices(document, &mut hierarchy);
+    let height = skeleton_height(&hierarchy.skeleton, &up_in_file);
+    let motion = chosen_motion(document, &hierarchy, stack, height)?;
+    Ok((hierarchy.skeleton, motion, stack_summaries(document)))
+}
+
+fn stack_summaries(document: &Document) -> Vec<StackSummary> {
+    let unit = animation::ticks_per_second(document);
+    animation::stacks(document)
+        .into_iter()
+        .map(|s| {
+            let seconds = |n: &str| document.number(s, n).filter(|v| v.is_finite()).map_or(0.0, |t| t / unit);
+            StackSummary { name: s.name.clone(), start_s: seconds("LocalStart"), end_s: seconds("LocalStop") }
+        })
+        .collect()
+}
+
+fn chosen_motion(
+    document: &Document,
+    hierarchy: &Hierarchy,
+    stack: Option<&str>,
+    height: f64,
+) -> Result<Option<Motion>, String> {
+    let Some(stack) = animation::choose_stack(document, stack)? else { return Ok(None) };
+    let bone_of = |id: i64| hierarchy.bone_of.get(&id).copied();
+    let targets = Targets { document, skeleton: &hierarchy.skeleton, bone_of: &bone_of };
+    animation::motion(&targets, stack, height)
+}
+
 /// `world_from_file` (axes to Y up, units to metres) and the file's up vector.
 fn axes_and_units(document: &Document) -> (Matrix4<f64>, Vector3<f64>) {
-    let settings = document.tree().root().first_child_by_name("GlobalSettings");
-    let get = |name: &str, default: f64| settings.as_ref().and_then(|s| number_property(s, name)).unwrap_or(default);
-    let axis = |index: f64| (index.round() as usize).min(2);
+    let settings = document.section("GlobalSettings").map(|node| (node, document));
+    let get = |name: &str, default: f64| {
+        settings
+            .and_then(|(node, _)| node.child("Properties70"))
+            .and_then(|list| list.children_named("P").find(|p| p.value(0).and_then(|v| v.string()) == Some(name)))
+            .and_then(|p| p.value(4)?.number())
+            .filter(|v| v.is_finite())
+            .unwrap_or(default)
+    };
+    let axis = |index: f64| (index.round().clamp(0.0, 2.0)) as usize;
     let sign = |s: f64| if s < 0.0 { -1.0 } else { 1.0 };
     let (up, up_sign) = (axis(get("UpAxis", 1.0)), sign(get("UpAxisSign", 1.0)));
     let (front, front_sign) = (axis(get("FrontAxis", 2.0)), sign(get("FrontAxisSign", 1.0)));
@@ -83,459 +155,316 @@ fn axes_and_units(document: &Document) -> (Matrix4<f64>, Vector3<f64>) {
         rows = Matrix3::identity();
     }
     let centimetres_per_unit = get("UnitScaleFactor", 1.0);
-    let metres_per_unit = if centimetres_per_unit.is_finite() && centimetres_per_unit > 0.0 {
-        centimetres_per_unit / 100.0
-    } else {
-        0.01
-    };
+    let metres_per_unit = if centimetres_per_unit > 0.0 { centimetres_per_unit / 100.0 } else { 0.01 };
     let mut up_in_file = Vector3::zeros();
     up_in_file[up] = up_sign;
     ((rows * metres_per_unit).to_homogeneous(), up_in_file)
 }
 
-/// The first mesh Model with a skinned Geometry, else the first with any Geometry.
-fn skinned_mesh(document: &Document) -> Result<(ObjectHandle<'_>, ObjectHandle<'_>), String> {
-    let mut unskinned = None;
-    for model in objects_named(document, "Model").into_iter().filter(|m| m.subclass() == "Mesh") {
-        for (geometry, _) in sources(&model).into_iter().filter(|(o, _)| o.node().name() == "Geometry") {
-            if !clusters_of(&geometry).is_empty() {
-                return Ok((model, geometry));
-            }
-            unskinned.get_or_insert((model, geometry));
-        }
-    }
-    unskinned.ok_or_else(|| "the file has no mesh: a body needs a Model of type Mesh with its Geometry".to_owned())
-}
-
-/// A mesh as read: positions in the mesh's frame (file units), triangles, and
-/// UVs and materials.
-struct MeshData {
-    positions: Vec<Vector3<f64>>,
-    triangles: Vec<[u32; 3]>,
-    surface: Surface,
-}
-
-/// A triangle's vertex indices and UV indices.
-struct Corners {
-    vertices: [u32; 3],
-    uvs: [u32; 3],
-}
-
-/// A UV layer: the UVs and, per polygon corner, which one it uses.
-struct UvLayer {
-    uvs: Vec<[f32; 2]>,
-    index: Vec<u32>,
-}
-
-/// Positions (mesh frame, file units), triangles (polygons fanned), UVs and materials.
-fn read_geometry(geometry: &ObjectHandle<'_>, model: &ObjectHandle<'_>) -> Result<MeshData, String> {
-    let node = geometry.node();
-    let coordinates = float_array(&node, "Vertices")?;
-    let corners = int_array(&node, "PolygonVertexIndex")?;
-    if coordinates.len() / 3 > MAX_ARRAY || corners.len() > MAX_ARRAY {
-        return Err("the mesh is larger than drape accepts".into());
-    }
-    let positions: Vec<Vector3<f64>> = coordinates.chunks_exact(3).map(|c| Vector3::new(c[0], c[1], c[2])).collect();
-    if let Some(bad) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-        return Err(format!("vertex {bad} of the mesh is not a finite position"));
-    }
-    let polygons = polygons(&corners, positions.len())?;
-    let uv_of_corner = uv_layer(&node, corners.len())?;
-    let material_of_polygon = material_layer(&node, polygons.len());
-
-    let mut surface = Surface::default();
-    if let Some(layer) = &uv_of_corner {
-        surface.uvs = layer.uvs.clone();
-    }
-    // Triangles grouped by material (parts are contiguous runs), file order within.
-    let mut by_material: BTreeMap<usize, Vec<Corners>> = BTreeMap::new();
-    for (p, (first_corner, polygon)) in polygons.iter().enumerate() {
-        let material = material_of_polygon.get(p).copied().unwrap_or(0);
-        for k in 1..polygon.len().saturating_sub(1) {
-            let picks = [0, k, k + 1];
-            let vertices = picks.map(|i| polygon[i]);
-            let uvs = match &uv_of_corner {
-                Some(layer) => picks.map(|i| layer.index.get(first_corner + i).copied().unwrap_or(0)),
-                None => [0; 3],
-            };
-            by_material.entry(material).or_default().push(Corners { vertices, uvs });
-        }
-    }
-    let materials: Vec<ObjectHandle<'_>> =
-        sources(model).into_iter().filter(|(o, _)| o.node().name() == "Material").map(|(o, _)| o).collect();
-    let mut triangles = Vec::new();
-    for (material, run) in by_material {
-        let source = materials.get(material);
-        let name = source.and_then(|m| m.name()).map_or_else(|| format!("material{material}"), str::to_owned);
-        let diffuse = source.and_then(|m| vector_property(&m.node(), "DiffuseColor")).unwrap_or(Vector3::repeat(0.8));
-        surface.materials.push(Material {
-            name: name.clone(),
-            diffuse: [diffuse.x as f32, diffuse.y as f32, diffuse.z as f32],
-            diffuse_texture: None,
-        });
-        surface.parts.push(Part {
-            name,
-            material: Some(surface.materials.len() - 1),
-            first_triangle: triangles.len(),
-            triangle_count: run.len(),
-        });
-        for corners in run {
-            triangles.push(corners.vertices);
-            if uv_of_corner.is_some() {
-                surface.triangle_uvs.push(corners.uvs);
-            }
-        }
-    }
-    if triangles.is_empty() {
-        return Err("the mesh has no polygons".into());
-    }
-    Ok(MeshData { positions, triangles, surface })
-}
-
-/// Polygons from `PolygonVertexIndex` (the last corner of each is stored as
-/// `-(index + 1)`), each with the position of its first corner in the array.
-fn polygons(corners: &[i64], vertex_count: usize) -> Result<Vec<(usize, Vec<u32>)>, String> {
-    let mut polygons = Vec::new();
-    let mut current = Vec::new();
-    let mut first = 0;
-    for (i, &c) in corners.iter().enumerate() {
-        // `!c` is `-(c + 1)` without overflow.
-        let (index, last) = if c < 0 { (!c, true) } else { (c, false) };
-        let index = usize::try_from(index).ok().filter(|&v| v < vertex_count).ok_or_else(|| {
-            format!("PolygonVertexIndex entry {i} refers to vertex {index}, but the mesh has {vertex_count}")
-        })?;
-        current.push(index as u32);
-        if last {
-            polygons.push((first, std::mem::take(&mut current)));
-            first = i + 1;
-        }
-    }
-    if !current.is_empty() {
-        return Err("PolygonVertexIndex ends inside a polygon (the last corner is not marked)".into());
-    }
-    Ok(polygons)
-}
-
-/// The first UV layer as (UVs, UV index per polygon corner), when mapped by polygon corner.
-fn uv_layer(
-    node: &fbxcel_dom::fbxcel::tree::v7400::NodeHandle<'_>,
-    corner_count: usize,
-) -> Result<Option<UvLayer>, String> {
-    let Some(layer) = node.first_child_by_name("LayerElementUV") else { return Ok(None) };
-    if child_string(&layer, "MappingInformationType") != Some("ByPolygonVertex") {
-        return Ok(None);
-    }
-    let uvs: Vec<[f32; 2]> = float_array(&layer, "UV")?.chunks_exact(2).map(|c| [c[0] as f32, c[1] as f32]).collect();
-    let index: Vec<u32> = match child_string(&layer, "ReferenceInformationType") {
-        Some("IndexToDirect") | Some("Index") => int_array(&layer, "UVIndex")?
-            .into_iter()
-            .map(|i| u32::try_from(i).ok().filter(|&i| (i as usize) < uvs.len()).unwrap_or(0))
-            .collect(),
-        _ => (0..corner_count as u32).map(|i| i.min(uvs.len().saturating_sub(1) as u32)).collect(),
+/// The application that last saved the file (`Maya`, `3ds Max`,
+/// `Blender`...): a few of them evaluate some things their own way.
+pub fn application(document: &Document) -> String {
+    let info =
+        document.section("FBXHeaderExtension").and_then(|h| h.child("SceneInfo")).and_then(|s| s.child("Properties70"));
+    let named = |name: &str| {
+        let p = info?.children_named("P").find(|p| p.value(0).and_then(|v| v.string()) == Some(name))?;
+        p.value(4)?.string().map(str::to_owned)
     };
-    Ok((index.len() == corner_count && !uvs.is_empty()).then_some(UvLayer { uvs, index }))
+    let creator = document.section("FBXHeaderExtension").and_then(|h| h.child_string("Creator")).unwrap_or("");
+    named("LastSaved|ApplicationName")
+        .or_else(|| named("Original|ApplicationName"))
+        .unwrap_or_else(|| if creator.starts_with("Blender") { "Blender".into() } else { String::new() })
 }
 
-/// Material index per polygon (all 0 without a layer or when `AllSame`).
-fn material_layer(node: &fbxcel_dom::fbxcel::tree::v7400::NodeHandle<'_>, polygon_count: usize) -> Vec<usize> {
-    let Some(layer) = node.first_child_by_name("LayerElementMaterial") else { return Vec::new() };
-    let Ok(indices) = int_array(&layer, "Materials") else { return Vec::new() };
-    match child_string(&layer, "MappingInformationType") {
-        Some("ByPolygon") if indices.len() == polygon_count => {
-            indices.into_iter().map(|i| usize::try_from(i).unwrap_or(0)).collect()
-        }
-        _ => vec![indices.first().and_then(|&i| usize::try_from(i).ok()).unwrap_or(0); polygon_count],
+/// What the file is: its encoding, version and the application that saved it.
+pub fn describe(document: &Document, application: &str) -> String {
+    let encoding = if document.ascii { "ASCII" } else { "binary" };
+    match application.is_empty() {
+        true => format!("{encoding} FBX {}", document.version),
+        false => format!("{encoding} FBX {} saved by {application}", document.version),
     }
 }
 
-/// The Cluster deformers of a geometry's Skin deformers.
-fn clusters_of<'a>(geometry: &ObjectHandle<'a>) -> Vec<ObjectHandle<'a>> {
-    sources(geometry)
-        .into_iter()
-        .filter(|(o, _)| o.node().name() == "Deformer" && o.subclass() == "Skin")
-        .flat_map(|(skin, _)| sources(&skin))
-        .map(|(o, _)| o)
-        .filter(|o| o.node().name() == "Deformer" && o.subclass() == "Cluster")
-        .collect()
-}
-
-/// The bone Model a cluster follows.
-fn cluster_bone<'a>(cluster: &ObjectHandle<'a>) -> Option<ObjectHandle<'a>> {
-    sources(cluster).into_iter().map(|(o, _)| o).find(|o| o.node().name() == "Model")
-}
-
-/// The parent Model of a Model.
-fn parent_model<'a>(model: &ObjectHandle<'a>) -> Option<ObjectHandle<'a>> {
-    destinations(model).into_iter().find(|o| o.node().name() == "Model")
-}
-
-/// The Models from the roots down to every cluster's bone (parents first),
-/// and the bone index of each Model id. A static body has one bone: the mesh's Model.
-fn skeleton_of(
-    clusters: &[ObjectHandle<'_>],
-    mesh_model: &ObjectHandle<'_>,
-) -> Result<(Skeleton, HashMap<i64, usize>), String> {
-    let mut chains: Vec<Vec<ObjectHandle<'_>>> = Vec::new();
-    let leaves: Vec<ObjectHandle<'_>> = match clusters.is_empty() {
-        true => vec![*mesh_model],
-        false => clusters.iter().filter_map(cluster_bone).collect(),
-    };
-    for leaf in leaves {
-        let mut chain = vec![leaf];
-        while let Some(parent) = chain.last().and_then(parent_model) {
-            if chain.len() > 10_000 || chain.iter().any(|o| id(o) == id(&parent)) {
-                return Err("the Model hierarchy has a cycle".into());
-            }
-            chain.push(parent);
-        }
-        chain.reverse();
-        chains.push(chain);
-    }
-    let mut skeleton = Skeleton::default();
-    let mut bone_of_model = HashMap::new();
-    for chain in chains {
-        let mut parent = None;
-        for model in chain {
-            let index = match bone_of_model.get(&id(&model)) {
-                Some(&index) => index,
-                None => {
-                    let name = model.name().unwrap_or("").to_owned();
-                    if skeleton.find(&name).is_some() {
-                        return Err(format!("two bones are called '{name}': bone names must be unique"));
-                    }
-                    skeleton.bones.push(Bone { name, parent, rest: node_transform(&model)? });
-                    bone_of_model.insert(id(&model), skeleton.bones.len() - 1);
-                    skeleton.bones.len() - 1
-                }
-            };
-            parent = Some(index);
+/// Every Model as a bone, parents first; otherwise in file order.
+pub fn hierarchy(document: &Document) -> Result<Hierarchy, String> {
+    let models: Vec<&Object> = document.objects().iter().filter(|o| o.class == "Model").collect();
+    let index_of: BTreeMap<i64, usize> = models.iter().enumerate().map(|(i, m)| (m.id, i)).collect();
+    // A Model's parent: the last Model it connects to (the FBX SDK's rule).
+    let parent_of: Vec<Option<usize>> = models
+        .iter()
+        .map(|m| {
+            document
+                .destinations(m)
+                .filter(|(o, _)| o.class == "Model")
+                .last()
+                .and_then(|(o, _)| index_of.get(&o.id).copied())
+        })
+        .collect();
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); models.len()];
+    for (i, parent) in parent_of.iter().enumerate() {
+        if let Some(p) = *parent {
+            children[p].push(i);
         }
     }
-    Ok((skeleton, bone_of_model))
+    let mut order = Vec::with_capacity(models.len());
+    let mut stack: Vec<usize> = (0..models.len()).rev().filter(|&i| parent_of[i].is_none()).collect();
+    while let Some(i) = stack.pop() {
+        order.push(i);
+        stack.extend(children[i].iter().rev());
+    }
+    if order.len() != models.len() {
+        return Err("the Model hierarchy has a cycle".into());
+    }
+    let mut bone_of = BTreeMap::new();
+    let mut bones = Vec::with_capacity(models.len());
+    for &i in &order {
+        let model = models[i];
+        let parent = parent_of[i].and_then(|p| bone_of.get(&models[p].id).copied());
+        bones.push(Bone { name: model.name.clone(), parent, rest: node_transform(document, model)?, bind: None });
+        bone_of.insert(model.id, bones.len() - 1);
+    }
+    Ok(Hierarchy { skeleton: Skeleton { bones }, bone_of })
 }
 
-/// Global bind matrices of the BindPose, by Model id.
-fn bind_pose_matrices(document: &Document) -> HashMap<i64, Matrix4<f64>> {
-    let mut matrices = HashMap::new();
-    for pose in objects_named(document, "Pose").into_iter().filter(|p| p.subclass() == "BindPose") {
-        for entry in pose.node().children_by_name("PoseNode") {
-            let node = entry.first_child_by_name("Node").and_then(|n| n.attributes().first()?.get_i64());
-            let values =
-                float_array(&entry, "Matrix").ok().filter(|m| m.len() == 16 && m.iter().all(|v| v.is_finite()));
-            if let (Some(node), Some(values)) = (node, values) {
-                matrices.entry(node).or_insert_with(|| Matrix4::from_column_slice(&values));
-            }
-        }
-    }
-    matrices
-}
-
-/// Sets each bone's rest transform to its bind pose (a file's `Lcl` values
-/// are whatever pose it was saved in): clusters' `TransformLink`s, else the
-/// BindPose, else `Lcl`. Only plain nodes (XYZ order, no pre/post rotation,
-/// pivots or offsets) are re-expressed; others keep `Lcl`.
-fn rest_at_bind(
-    document: &Document,
-    skeleton: &mut Skeleton,
-    bone_of_model: &HashMap<i64, usize>,
-    clusters: &[ObjectHandle<'_>],
-) {
-    let mut bind = bind_pose_matrices(document)
-        .into_iter()
-        .filter_map(|(model, m)| Some((*bone_of_model.get(&model)?, m)))
-        .collect::<HashMap<usize, Matrix4<f64>>>();
-    for cluster in clusters {
-        let bone = cluster_bone(cluster).and_then(|m| bone_of_model.get(&id(&m)).copied());
-        if let (Some(bone), Ok(link)) = (bone, matrix(cluster, "TransformLink")) {
-            bind.insert(bone, link);
-        }
-    }
-    let mut world: Vec<Matrix4<f64>> = Vec::with_capacity(skeleton.bones.len());
-    for (i, bone) in skeleton.bones.iter_mut().enumerate() {
-        let parent = bone.parent.and_then(|p| world.get(p).copied()).unwrap_or_else(Matrix4::identity);
-        let own = bind.get(&i).copied().unwrap_or_else(|| parent * bone.rest.matrix());
-        let plain = bone.rest.order == EulerOrder::Xyz
-            && [bone.rest.pre_rotation_deg, bone.rest.post_rotation_deg, bone.rest.rotation_offset]
-                .iter()
-                .chain(&[bone.rest.rotation_pivot, bone.rest.scaling_offset, bone.rest.scaling_pivot])
-                .all(|v| v.norm() == 0.0);
-        let local = parent.try_inverse().map(|p| p * own).and_then(|m| NodeTransform::from_matrix(&m));
-        if let (true, Some(local)) = (plain, local) {
-            bone.rest = local;
-        }
-        world.push(parent * bone.rest.matrix());
-    }
-}
-
-/// A Model's local transform properties.
-fn node_transform(model: &ObjectHandle<'_>) -> Result<NodeTransform, String> {
-    let node = model.node();
-    let vector = |name: &str, default: Vector3<f64>| vector_property(&node, name).unwrap_or(default);
-    let order_value = number_property(&node, "RotationOrder").unwrap_or(0.0) as i64;
-    let order = EulerOrder::from_fbx(order_value).ok_or_else(|| {
-        format!(
-            "Model '{}' has RotationOrder {order_value}, which drape does not support (use an Euler order such as XYZ)",
-            model.name().unwrap_or("")
-        )
-    })?;
-    // Pre/Post rotation and pivots count only when RotationActive says so (FBX SDK rule).
-    let active = number_property(&node, "RotationActive").unwrap_or(0.0) != 0.0;
-    let gated = |name: &str| if active { vector(name, Vector3::zeros()) } else { Vector3::zeros() };
+/// A Model's local transform properties (template defaults applied; without
+/// a template, the FBX SDK's own defaults).
+fn node_transform(document: &Document, model: &Object) -> Result<NodeTransform, String> {
+    let vector = |name: &str, default: Vector3<f64>| document.vector(model, name).unwrap_or(default);
+    let number = |name: &str, default: f64| document.number(model, name).unwrap_or(default);
     let transform = NodeTransform {
         translation: vector("Lcl Translation", Vector3::zeros()),
         rotation_deg: vector("Lcl Rotation", Vector3::zeros()),
         scaling: vector("Lcl Scaling", Vector3::repeat(1.0)),
-        order,
-        pre_rotation_deg: gated("PreRotation"),
-        post_rotation_deg: gated("PostRotation"),
+        // Spheric XYZ (6) and unknown orders turn as XYZ.
+        order: EulerOrder::from_fbx(number("RotationOrder", 0.0) as i64).unwrap_or_default(),
+        rotation_active: number("RotationActive", 1.0) != 0.0 && number("RotationSpaceForLimitOnly", 0.0) == 0.0,
+        pre_rotation_deg: vector("PreRotation", Vector3::zeros()),
+        post_rotation_deg: vector("PostRotation", Vector3::zeros()),
         rotation_offset: vector("RotationOffset", Vector3::zeros()),
         rotation_pivot: vector("RotationPivot", Vector3::zeros()),
         scaling_offset: vector("ScalingOffset", Vector3::zeros()),
         scaling_pivot: vector("ScalingPivot", Vector3::zeros()),
+        inherit: Inherit::from_fbx(number("InheritType", 1.0) as i64),
     };
-    let values = [transform.translation, transform.rotation_deg, transform.scaling];
+    let values = [
+        transform.translation,
+        transform.rotation_deg,
+        transform.scaling,
+        transform.pre_rotation_deg,
+        transform.post_rotation_deg,
+        transform.rotation_offset,
+        transform.rotation_pivot,
+        transform.scaling_offset,
+        transform.scaling_pivot,
+    ];
     if values.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
-        return Err(format!("Model '{}' has a non-finite transform", model.name().unwrap_or("")));
+        return Err(format!("Model '{}' has a transform that is not finite", model.name));
     }
     Ok(transform)
 }
 
-/// A 4×4 matrix stored as 16 doubles, column by column.
-fn matrix(cluster: &ObjectHandle<'_>, name: &str) -> Result<Matrix4<f64>, String> {
-    let values = float_array(&cluster.node(), name)?;
-    match values.len() == 16 && values.iter().all(|v| v.is_finite()) {
-        true => Ok(Matrix4::from_column_slice(&values)),
-        false => Err(format!("{name} of cluster '{}' is not 16 finite numbers", cluster.name().unwrap_or(""))),
+/// Bind matrices of the bones: clusters' `TransformLink`s, else the first
+/// bind pose that lists the node.
+fn set_bind_matrices(document: &Document, hierarchy: &mut Hierarchy) {
+    let mut bind: BTreeMap<usize, Matrix4<f64>> = BTreeMap::new();
+    for pose in document.objects().iter().filter(|o| o.class == "Pose" && o.subclass == "BindPose") {
+        for entry in document.node(pose).children_named("PoseNode") {
+            let node =
+                entry.child_value("Node").and_then(|v| v.int()).and_then(|id| hierarchy.bone_of.get(&id).copied());
+            if let (Some(bone), Some(m)) = (node, matrix(entry.child_value("Matrix"))) {
+                bind.entry(bone).or_insert(m);
+            }
+        }
+    }
+    for cluster in document.objects().iter().filter(|o| o.class == "Deformer" && o.subclass == "Cluster") {
+        let bone = document
+            .sources(cluster)
+            .find(|(o, _)| o.class == "Model")
+            .and_then(|(o, _)| hierarchy.bone_of.get(&o.id).copied());
+        if let (Some(bone), Some(m)) = (bone, matrix(document.node(cluster).child_value("TransformLink"))) {
+            bind.insert(bone, m);
+        }
+    }
+    for (bone, m) in bind {
+        hierarchy.skeleton.bones[bone].bind = Some(m);
     }
 }
 
-/// Weights and bind matrices.
-fn skin_of(
-    clusters: &[ObjectHandle<'_>],
-    bone_of_model: &HashMap<i64, usize>,
-    skeleton: &Skeleton,
-    bind_positions: Vec<Vector3<f64>>,
-) -> Result<Skin, String> {
-    let vertex_count = bind_positions.len();
-    let mut weights: Vec<Vec<(u32, f32)>> = vec![Vec::new(); vertex_count];
-    let mut bone_from_mesh = vec![Matrix4::identity(); skeleton.bones.len()];
-    // A static body (no clusters): the mesh Model's own transform places it.
-    let mut file_from_mesh = skeleton.world_matrices(&skeleton.rest_pose()).last().copied().unwrap_or_default();
-    for cluster in clusters {
-        let Some(bone) = cluster_bone(cluster).and_then(|m| bone_of_model.get(&id(&m)).copied()) else { continue };
-        let name = cluster.name().unwrap_or("");
-        let node = cluster.node();
-        let (indexes, values) = match (int_array(&node, "Indexes"), float_array(&node, "Weights")) {
-            (Ok(i), Ok(w)) => (i, w),
-            _ => (Vec::new(), Vec::new()), // a cluster that deforms nothing
-        };
-        if indexes.len() != values.len() {
-            return Err(format!("cluster '{name}' has {} indexes but {} weights", indexes.len(), values.len()));
-        }
-        // `Transform` is stored relative to the bone (bone_from_mesh at bind),
-        // although the FBX SDK presents it in global space as TransformLink ×
-        // Transform; `TransformLink` is the bone's global bind matrix.
-        let mesh_in_bone = matrix(cluster, "Transform")?;
-        let bone_bind = matrix(cluster, "TransformLink")?;
-        bone_from_mesh[bone] = mesh_in_bone;
-        file_from_mesh = bone_bind * mesh_in_bone;
-        for (&vertex, &weight) in indexes.iter().zip(&values) {
-            let slot = usize::try_from(vertex).ok().and_then(|v| weights.get_mut(v));
-            let slot =
-                slot.ok_or_else(|| format!("cluster '{name}' weights vertex {vertex}, the mesh has {vertex_count}"))?;
-            slot.push((bone as u32, weight as f32));
-        }
-    }
-    let influences = weights.into_iter().map(|w| strongest_influences(w).unwrap_or([(0, 0.0); 4])).collect();
-    Ok(Skin { bind_positions, influences, bone_from_mesh, file_from_mesh })
+/// Every Model with a mesh Geometry (its first, in connection order) that
+/// has polygons, read, in file order. A mesh without polygons (an edge
+/// loop, a point cloud) cannot touch cloth and is left out.
+fn mesh_models(document: &Document) -> Vec<(&Object, &Object, Result<Geometry, String>)> {
+    let models = document.objects().iter().filter(|o| o.class == "Model");
+    models
+        .filter_map(|m| {
+            let object = document.sources(m).map(|(o, _)| o).find(|o| o.class == "Geometry" && o.subclass == "Mesh")?;
+            let node = document.node(object);
+            if node.child("Vertices").is_none() || node.child("PolygonVertexIndex").is_none() {
+                return None;
+            }
+            let geometry = geometry::read(node).map_err(|e| format!("mesh '{}': {e}", m.name));
+            match &geometry {
+                Ok(g) if g.triangles.is_empty() => None,
+                _ => Some((m, object, geometry)),
+            }
+        })
+        .collect()
 }
 
-/// The first animation stack's curves on the skeleton's bones.
-fn animation(
+/// The meshes `options` keeps; an unknown name is an error listing the parts.
+fn kept_meshes<'a>(
+    meshes: &[(&'a Object, &'a Object, Result<Geometry, String>)],
+    options: &BodyOptions,
+) -> Result<Vec<(&'a Object, &'a Object, Geometry)>, Problem> {
+    let names: Vec<&str> = meshes.iter().map(|(m, _, _)| m.name.as_str()).collect();
+    let asked = options.parts.iter().flatten().chain(&options.exclude);
+    if let Some(unknown) = asked.into_iter().find(|n| !names.contains(&n.as_str())) {
+        let list: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+        return Err(format!("there is no mesh '{unknown}'; the file's meshes are {}", list.join(", ")).into());
+    }
+    let mut kept = Vec::new();
+    for (model, object, geometry) in meshes {
+        let chosen =
+            options.parts.as_ref().is_none_or(|p| p.contains(&model.name)) && !options.exclude.contains(&model.name);
+        if chosen {
+            kept.push((*model, *object, geometry.clone()?));
+        }
+    }
+    if kept.is_empty() {
+        return Err("no mesh is left once the parts are chosen: keep at least one".to_owned().into());
+    }
+    Ok(kept)
+}
+
+/// A mesh Model's part: its points, polygons, geometric transform, skin and blend shapes.
+fn part(
     document: &Document,
-    skeleton: &Skeleton,
-    bone_of_model: &HashMap<i64, usize>,
-    up_in_file: &Vector3<f64>,
-) -> Result<Option<Motion>, String> {
-    let Some(stack) = objects_named(document, "AnimationStack").into_iter().next() else { return Ok(None) };
-    let layers: Vec<_> = sources(&stack).into_iter().filter(|(o, _)| o.node().name() == "AnimationLayer").collect();
-    let Some((layer, _)) = layers.into_iter().next() else { return Ok(None) };
-    let mut bones: BTreeMap<String, BoneChannels> = BTreeMap::new();
-    let (mut first, mut last) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (curve_node, _) in sources(&layer).into_iter().filter(|(o, _)| o.node().name() == "AnimationCurveNode") {
-        // The curve node drives one property of one Model.
-        let target = curve_node.destination_objects().find_map(|c| {
-            let object = c.object_handle()?;
-            let bone = *bone_of_model.get(&id(&object))?;
-            Some((bone, c.label()?))
-        });
-        let Some((bone, property)) = target else { continue };
-        let channels = bones.entry(skeleton.bones[bone].name.clone()).or_default();
-        let slot = match property {
-            "Lcl Translation" => &mut channels.translation,
-            "Lcl Rotation" => &mut channels.rotation,
-            "Lcl Scaling" => &mut channels.scaling,
-            _ => continue,
-        };
-        for (curve, label) in sources(&curve_node).into_iter().filter(|(o, _)| o.node().name() == "AnimationCurve") {
-            let axis = match label {
-                Some("d|X") => 0,
-                Some("d|Y") => 1,
-                Some("d|Z") => 2,
-                _ => continue,
+    hierarchy: &Hierarchy,
+    model: &Object,
+    geometry_object: &Object,
+    geometry: &Geometry,
+    first_vertex: usize,
+    application: &str,
+) -> Result<BodyPart, String> {
+    let node = hierarchy.bone_of.get(&model.id).copied().ok_or("a mesh's Model is not in the hierarchy")?;
+    let vector = |name: &str, default: Vector3<f64>| {
+        document.vector(model, name).filter(|v| v.iter().all(|c| c.is_finite())).unwrap_or(default)
+    };
+    let geometric = geometric_matrix(
+        &vector("GeometricTranslation", Vector3::zeros()),
+        &vector("GeometricRotation", Vector3::zeros()),
+        &vector("GeometricScaling", Vector3::repeat(1.0)),
+    );
+    let vertex_count = geometry.positions.len();
+    let bind = hierarchy.skeleton.bind_matrices();
+    let skin = match stored_skin(document, geometry_object).map_err(|e| format!("mesh '{}': {e}", model.name))? {
+        Some((clusters, method, shares)) => {
+            let bone_of = |bone: &Object| {
+                let index = hierarchy.bone_of.get(&bone.id).copied()?;
+                Some((index, bind[index]))
             };
-            let curve = read_curve(&curve)?;
-            if let (Some(&a), Some(&b)) = (curve.times_s.first(), curve.times_s.last()) {
-                first = first.min(a);
-                last = last.max(b);
+            let mut skin = skin(&clusters, method, &shares, vertex_count, &geometric, &bone_of, &bind[node]);
+            if application.starts_with("Maya") {
+                // The mesh's place when it was bound (its geometry matrix,
+                // shared by every instance of it).
+                let bound = clusters.iter().find_map(|c| Some(c.transform_link? * c.transform?)).unwrap_or(bind[node]);
+                skin.node_at_bind_inverse = bound.try_inverse();
             }
-            slot[axis] = Some(curve);
+            (!skin.clusters.is_empty()).then_some(skin)
         }
-    }
-    if bones.is_empty() {
-        return Ok(None);
-    }
-    let stack_node = stack.node();
-    let start = number_property(&stack_node, "LocalStart").map_or(first, |t| t / TICKS_PER_SECOND);
-    let stop = number_property(&stack_node, "LocalStop").map_or(last, |t| t / TICKS_PER_SECOND);
-    let reference_height = skeleton_height(skeleton, up_in_file);
-    Ok(Some(Motion { bones, start_s: start, end_s: stop.max(start), reference_height, source: skeleton.clone() }))
+        None => None,
+    };
+    let shapes = shape_channels(document, geometry_object, vertex_count, application.starts_with("Blender"))
+        .map_err(|e| format!("mesh '{}': {e}", model.name))?;
+    Ok(BodyPart {
+        name: model.name.clone(),
+        node,
+        geometric,
+        first_vertex,
+        points: geometry.positions.clone(),
+        shapes,
+        kind: if skin.is_some() { PartKind::Skinned } else { PartKind::Static },
+        skin,
+        polygons: Polygons { corners: geometry.corners.clone(), starts: geometry.polygon_starts.clone() },
+    })
 }
 
-/// One AnimationCurve: keys, values and per-key interpolation.
-fn read_curve(curve: &ObjectHandle<'_>) -> Result<Curve, String> {
-    let node = curve.node();
-    let times = int_array(&node, "KeyTime")?;
-    let values = float_array(&node, "KeyValueFloat")?;
-    if times.len() != values.len() || times.len() > MAX_ARRAY {
-        return Err(format!("an animation curve has {} key times but {} values", times.len(), values.len()));
-    }
-    let times_s: Vec<f64> = times.iter().map(|&t| t as f64 / TICKS_PER_SECOND).collect();
-    if times_s.windows(2).any(|w| w[1] < w[0]) || values.iter().any(|v| !v.is_finite()) {
-        return Err("an animation curve has keys out of time order or non-finite values".into());
-    }
-    let flags = int_array(&node, "KeyAttrFlags").unwrap_or_default();
-    let data = float_array(&node, "KeyAttrDataFloat").unwrap_or_default();
-    let counts = int_array(&node, "KeyAttrRefCount").unwrap_or_default();
-    // Each attribute entry applies to the next `count` keys.
-    let mut interpolation = Vec::with_capacity(times.len());
-    for (entry, &count) in counts.iter().enumerate() {
-        let flag = flags.get(entry).copied().unwrap_or(0x04);
-        for _ in 0..count.max(0) {
-            let key = interpolation.len();
-            if key >= times.len() {
-                break;
-            }
-            interpolation.push(match flag {
-                f if f & 0x02 != 0 => Interpolation::Constant,
-                f if f & 0x08 != 0 => Interpolation::Cubic {
-                    right_slope: data.get(4 * entry).copied().unwrap_or(0.0),
-                    next_left_slope: data.get(4 * entry + 1).copied().unwrap_or(0.0),
-                },
-                _ => Interpolation::Linear,
-            });
+/// Unskinned parts whose node, or a node above it, the motion animates are rigid.
+fn mark_kinds(parts: &mut [BodyPart], skeleton: &Skeleton, motion: Option<&Motion>) {
+    let mut animated = vec![false; skeleton.bones.len()];
+    for node in motion.map(|m| m.nodes.as_slice()).unwrap_or_default() {
+        if let Some(a) = animated.get_mut(node.bone) {
+            *a = true;
         }
     }
-    interpolation.resize(times.len(), Interpolation::Linear);
-    Ok(Curve { times_s, values, interpolation })
+    for (i, bone) in skeleton.bones.iter().enumerate() {
+        if let Some(p) = bone.parent {
+            animated[i] |= animated[p];
+        }
+    }
+    for part in parts.iter_mut().filter(|p| p.kind == PartKind::Static) {
+        if animated.get(part.node).copied().unwrap_or(false) {
+            part.kind = PartKind::Rigid;
+        }
+    }
+}
+
+/// The materials a Model lists (by which its polygons' material indices go).
+fn materials_of(document: &Document, model: &Object) -> Vec<Material> {
+    document
+        .sources(model)
+        .map(|(o, _)| o)
+        .filter(|o| o.class == "Material")
+        .map(|m| {
+            let diffuse = document.vector(m, "DiffuseColor").unwrap_or(Vector3::repeat(0.8));
+            Material {
+                name: m.name.clone(),
+                diffuse: [diffuse.x as f32, diffuse.y as f32, diffuse.z as f32],
+                diffuse_texture: None,
+            }
+        })
+        .collect()
+}
+
+/// Appends a part's triangles, UVs and materials to the body's mesh (one
+/// surface part per run of a material).
+fn append_mesh(mesh: &mut TriMesh, geometry: &Geometry, materials: &[Material]) {
+    let base = mesh.vertex_count() as u32;
+    let uv_base = mesh.surface.uvs.len() as u32;
+    mesh.positions.extend(&geometry.positions);
+    let with_uvs = !geometry.surface.triangle_uvs.is_empty();
+    if mesh.surface.triangle_uvs.len() < mesh.triangles.len() && with_uvs {
+        // Earlier parts without UVs get the first UV of this one.
+        mesh.surface.triangle_uvs.resize(mesh.triangles.len(), [uv_base; 3]);
+    }
+    mesh.surface.uvs.extend(&geometry.surface.uvs);
+    let mut used: BTreeMap<usize, usize> = BTreeMap::new();
+    let mut start = 0;
+    while start < geometry.triangles.len() {
+        let material = geometry.triangle_materials[start];
+        let run = geometry.triangle_materials[start..].iter().take_while(|&&m| m == material).count();
+        let index = *used.entry(material).or_insert_with(|| {
+            let m = materials.get(material).cloned().unwrap_or_else(|| Material {
+                name: format!("material{material}"),
+                diffuse: [0.8; 3],
+                diffuse_texture: None,
+            });
+            mesh.surface.materials.push(m);
+            mesh.surface.materials.len() - 1
+        });
+        let name = mesh.surface.materials[index].name.clone();
+        mesh.surface.parts.push(Part {
+            name,
+            material: Some(index),
+            first_triangle: mesh.triangles.len() + start,
+            triangle_count: run,
+        });
+        start += run;
+    }
+    mesh.triangles.extend(geometry.triangles.iter().map(|t| t.map(|v| v + base)));
+    if with_uvs {
+        mesh.surface.triangle_uvs.extend(geometry.surface.triangle_uvs.iter().map(|t| t.map(|v| v + uv_base)));
+    } else if !mesh.surface.triangle_uvs.is_empty() {
+        mesh.surface.triangle_uvs.resize(mesh.triangles.len(), [0; 3]);
+    }
 }

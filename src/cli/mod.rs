@@ -1,0 +1,4 @@
+//! The commands of the `drape` binary, one module each (the rest still in
+//! `main.rs`).
+
+pub mod body;
