@@ -261,13 +261,15 @@ def own_materials(objects):
                 colour = mb.SKIN if kinds[i] == "skin" else mb.GARMENT
                 materials[i] = mb.make_material(f"{name}_{kinds[i]}", colour)
         remap = {}
+        # Clearing the slots resets every polygon's index: keep them first.
+        indices = [p.material_index for p in mesh.polygons]
         mesh.materials.clear()
         for i in used:
             if materials[i].name not in [m.name for m in mesh.materials]:
                 mesh.materials.append(materials[i])
             remap[i] = [m.name for m in mesh.materials].index(materials[i].name)
-        for polygon in mesh.polygons:
-            polygon.material_index = remap[polygon.material_index]
+        for polygon, index in zip(mesh.polygons, indices):
+            polygon.material_index = remap[index]
     for material in old:
         bpy.data.materials.remove(material)
 

@@ -63,6 +63,8 @@ pub struct BodyPart {
     pub geometric: Matrix4<f64>,
     /// Its first vertex in the body's mesh.
     pub first_vertex: usize,
+    /// Its triangles in the body's mesh: the first and how many.
+    pub triangles: std::ops::Range<usize>,
     /// Its points in the geometry's frame, file units.
     pub points: Vec<Vector3<f64>>,
     /// Blend-shape channels, applied before skinning.
@@ -100,6 +102,8 @@ pub struct Body {
     pub skeleton: Skeleton,
     /// The meshes, in file order.
     pub parts: Vec<BodyPart>,
+    /// The file's meshes left out (by the options), in file order.
+    pub left_out: Vec<String>,
     /// The chosen stack's animation, if it animates anything.
     pub motion: Option<Motion>,
     /// Every animation stack of the file, in file order.

@@ -27,8 +27,33 @@ pub struct SceneBody {
     pub surface: Surface,
     /// Where it came from, for reports.
     pub origin: String,
+    /// What it is made of.
+    pub loaded: LoadedBody,
+}
+
+/// What a body file gave the scene: its meshes, those left out, and how
+/// its motion fits.
+#[derive(Clone, Debug, Default)]
+pub struct LoadedBody {
+    /// The meshes in the collider, in file order (one for a motion cache).
+    pub parts: Vec<PartSummary>,
+    /// The file's meshes left out by `parts` / `exclude`.
+    pub left_out: Vec<String>,
     /// Bones of the motion the body lacks (motion reuse), for reports.
     pub unmatched_bones: Vec<String>,
+}
+
+/// One mesh of a scene's body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartSummary {
+    /// Its name in the file.
+    pub name: String,
+    /// How it moves: skinned, rigid or static.
+    pub kind: &'static str,
+    /// Its vertices in the collider.
+    pub vertices: std::ops::Range<usize>,
+    /// Its triangles in the collider.
+    pub triangles: std::ops::Range<usize>,
 }
 
 /// Why a body could not be loaded.
@@ -52,7 +77,7 @@ pub fn load_body(
     base_dir: &Path,
     fps: f64,
     duration_s: f64,
-) -> Result<(MeshCollider, Surface, Vec<String>), BodyError> {
+) -> Result<(MeshCollider, Surface, LoadedBody), BodyError> {
     let path = base_dir.join(&spec.file);
     let placement = Placement {
         rest_pose: Isometry3::from_parts(
@@ -62,7 +87,7 @@ pub fn load_body(
         motion: None,
     };
     let is_cache = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("motion"));
-    let (triangles, animation, bind, surface, unmatched) = if is_cache {
+    let (triangles, animation, bind, surface, loaded) = if is_cache {
         let fbx_only = spec.parts.is_some() || !spec.exclude.is_empty() || spec.stack.is_some();
         if spec.motion.is_some() || spec.blend_in_s > 0.0 || spec.speed != 1.0 || fbx_only {
             let why = "a motion cache is already posed: `motion`, `stack`, `parts`, `exclude`, `blend_in_s` and \
@@ -73,7 +98,15 @@ pub fn load_body(
         let mut animation = cache.animation;
         animation.start_s = -spec.start_s;
         animation.cycle = spec.cycle;
-        (cache.triangles, Some(animation), Vec::new(), Surface::default(), Vec::new())
+        let vertices = 0..animation.frames.first().map_or(0, Vec::len);
+        let part = PartSummary { name: "cache".into(), kind: "cached", vertices, triangles: 0..cache.triangles.len() };
+        (
+            cache.triangles,
+            Some(animation),
+            Vec::new(),
+            Surface::default(),
+            LoadedBody { parts: vec![part], ..Default::default() },
+        )
     } else {
         let options = BodyOptions {
             parts: spec.parts.clone(),
@@ -95,7 +128,18 @@ pub fn load_body(
             Some(m) => Some(sample(&body, &m, spec, fps, duration_s)?),
             None => None,
         };
-        (body.mesh.triangles, animation, body.mesh.positions, body.mesh.surface, unmatched)
+        let parts = body
+            .parts
+            .iter()
+            .map(|p| PartSummary {
+                name: p.name.clone(),
+                kind: p.kind.label(),
+                vertices: p.first_vertex..p.first_vertex + p.points.len(),
+                triangles: p.triangles.clone(),
+            })
+            .collect();
+        let loaded = LoadedBody { parts, left_out: body.left_out.clone(), unmatched_bones: unmatched };
+        (body.mesh.triangles, animation, body.mesh.positions, body.mesh.surface, loaded)
     };
     let vertices = match &animation {
         Some(a) => a.frames.first().cloned().unwrap_or_default(),
@@ -115,7 +159,7 @@ pub fn load_body(
         friction: spec.friction,
         animation: animation.map(Arc::new),
     };
-    Ok((collider, surface, unmatched))
+    Ok((collider, surface, loaded))
 }
 
 /// The body posed at every frame of the scene (and one past the end): from

@@ -350,11 +350,11 @@ impl Resolver<'_> {
         if let Some(mu) = spec.friction {
             self.check(&format!("{what}: friction"), mu, |m| (0.0..=10.0).contains(&m), "0 ≤ friction ≤ 10")?;
         }
-        let (collider, surface, unmatched_bones) = load_body(spec, self.base_dir, file.time.fps, file.time.duration_s)
+        let (collider, surface, loaded) = load_body(spec, self.base_dir, file.time.fps, file.time.duration_s)
             .map_err(|source| SceneError::Body { origin: self.origin.to_owned(), body: spec.name.clone(), source })?;
         meshes.push(collider);
         let origin = self.base_dir.join(&spec.file).display().to_string();
-        Ok(SceneBody { collider: meshes.len() - 1, surface, origin, unmatched_bones })
+        Ok(SceneBody { collider: meshes.len() - 1, surface, origin, loaded })
     }
 
     fn camera(&self, camera: &CameraSpec) -> Result<(), SceneError> {

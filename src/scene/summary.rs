@@ -87,9 +87,15 @@ pub fn summary(scene: &Scene) -> String {
     for b in &scene.bodies {
         let name = scene.mesh_colliders.get(b.collider).map_or("", |m| m.name.as_str());
         let _ = writeln!(out, "body '{name}': {}", b.origin);
-        if !b.unmatched_bones.is_empty() {
-            let _ =
-                writeln!(out, "  bones of the motion this body lacks (not moved): {}", b.unmatched_bones.join(", "));
+        let parts: Vec<String> =
+            b.loaded.parts.iter().map(|p| format!("{} ({}, {} vertices)", p.name, p.kind, p.vertices.len())).collect();
+        let _ = writeln!(out, "  meshes: {}", parts.join(", "));
+        if !b.loaded.left_out.is_empty() {
+            let _ = writeln!(out, "  meshes left out: {}", b.loaded.left_out.join(", "));
+        }
+        if !b.loaded.unmatched_bones.is_empty() {
+            let missing = b.loaded.unmatched_bones.join(", ");
+            let _ = writeln!(out, "  bones of the motion this body lacks (not moved): {missing}");
         }
     }
     for m in &scene.mesh_colliders {

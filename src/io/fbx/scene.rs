@@ -67,6 +67,8 @@ pub fn body(document: &Document, name: String, options: &BodyOptions) -> Result<
         return Err(Problem::NoMesh);
     }
     let kept = kept_meshes(&meshes, options)?;
+    let left_out: Vec<String> =
+        meshes.iter().map(|(m, _, _)| m.name.clone()).filter(|n| !kept.iter().any(|(m, _, _)| &m.name == n)).collect();
     set_bind_matrices(document, &mut hierarchy);
     let height = skeleton_height(&hierarchy.skeleton, &up_in_file);
     let motion = chosen_motion(document, &hierarchy, options.stack.as_deref(), height)?;
@@ -77,8 +79,11 @@ pub fn body(document: &Document, name: String, options: &BodyOptions) -> Result<
         if let Some(cache) = vertex_cache(document, geometry_object) {
             return Err(Problem::VertexCache { mesh: model.name.clone(), cache });
         }
-        let part = part(document, &hierarchy, model, geometry_object, &geometry, mesh.vertex_count(), &application)?;
+        let mut part =
+            part(document, &hierarchy, model, geometry_object, &geometry, mesh.vertex_count(), &application)?;
+        let first_triangle = mesh.triangles.len();
         append_mesh(&mut mesh, &geometry, &materials_of(document, model));
+        part.triangles = first_triangle..mesh.triangles.len();
         parts.push(part);
     }
     mark_kinds(&mut parts, &hierarchy.skeleton, motion.as_ref());
@@ -88,8 +93,8 @@ pub fn body(document: &Document, name: String, options: &BodyOptions) -> Result<
     }
     let stacks = stack_summaries(document);
     let source = describe(document, &application);
-    let mut body =
-        Body { name, source, mesh, skeleton: hierarchy.skeleton, parts, motion, stacks, world_from_file, up_in_file };
+    let skeleton = hierarchy.skeleton;
+    let mut body = Body { name, source, mesh, skeleton, parts, left_out, motion, stacks, world_from_file, up_in_file };
     body.mesh.positions = body.bind_pose();
     Ok(body)
 }
@@ -381,6 +386,7 @@ fn part(
         node,
         geometric,
         first_vertex,
+        triangles: 0..0,
         points: geometry.positions.clone(),
         shapes,
         kind: if skin.is_some() { PartKind::Skinned } else { PartKind::Static },
