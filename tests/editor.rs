@@ -479,3 +479,31 @@ fn a_dropped_file_is_used_for_what_it_is_or_refused() {
         "written relative to the scene"
     );
 }
+
+/// The Scene panel lists a character's meshes, each with a tick, and its
+/// animation stacks: unticking the eyes leaves them out of the collider and
+/// writes `exclude` into the scene; choosing Idle plays that stack.
+#[test]
+fn a_characters_meshes_and_stacks_are_chosen_in_the_scene_panel() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/skirt_character_walk.toml");
+    let mut h = harness(Editor::new(Scene::load(&path).unwrap()));
+    h.run_steps(2);
+    let vertices = |e: &Editor| e.scene.mesh_colliders[e.scene.bodies[0].collider].vertices.len();
+    let before = vertices(h.state());
+    h.get_by_role_and_label(Role::CheckBox, "Eye_L").click();
+    h.run_steps(2);
+    h.state_mut().finish_loading();
+    h.run_steps(2);
+    assert_eq!(h.state().scene.file.bodies[0].exclude, ["Eye_L"]);
+    assert_eq!(vertices(h.state()), before - 114, "the eye's vertices left the collider");
+    assert!(h.state().dirty, "the scene is marked changed");
+
+    h.get_by_label("Animation").click();
+    h.run_steps(2);
+    h.get_by_label("Idle").click();
+    h.run_steps(2);
+    h.state_mut().finish_loading();
+    h.run_steps(2);
+    let body = &h.state().scene.bodies[0].loaded;
+    assert_eq!((body.stack.as_deref(), h.state().scene.file.bodies[0].stack.as_deref()), (Some("Idle"), Some("Idle")));
+}

@@ -253,6 +253,43 @@ fn body_fields(ui: &mut Ui, editor: &mut Editor) {
     if let Some(path) = path_row(ui, editor, Field::Motion, "Use motion", hint) {
         editor.use_motion(path);
     }
+    body_meshes_ui(ui, editor);
+}
+
+/// The first body's meshes, each kept or left out by a tick, and its
+/// animation stacks to choose from.
+fn body_meshes_ui(ui: &mut Ui, editor: &mut Editor) {
+    let Some(loaded) = editor.scene.bodies.first().map(|b| b.loaded.clone()) else { return };
+    if loaded.meshes.len() > 1 {
+        let mut toggled = None;
+        ui.horizontal_wrapped(|ui| {
+            ui.label("Meshes").on_hover_text("The body's meshes the cloth collides with and the viewport shows");
+            for name in &loaded.meshes {
+                let mut kept = loaded.parts.iter().any(|p| &p.name == name);
+                let kind = loaded.parts.iter().find(|p| &p.name == name).map_or("left out", |p| p.kind);
+                if ui.checkbox(&mut kept, name.as_str()).on_hover_text(kind).changed() {
+                    toggled = Some((name.clone(), kept));
+                }
+            }
+        });
+        if let Some((name, keep)) = toggled {
+            editor.keep_body_mesh(&name, keep);
+        }
+    }
+    if loaded.stacks.len() > 1 {
+        let current = loaded.stack.clone().unwrap_or_default();
+        let mut chosen = None;
+        egui::ComboBox::from_label("Animation").selected_text(current.as_str()).show_ui(ui, |ui| {
+            for name in &loaded.stacks {
+                if ui.selectable_label(*name == current, name.as_str()).clicked() && *name != current {
+                    chosen = Some(name.clone());
+                }
+            }
+        });
+        if let Some(name) = chosen {
+            editor.use_stack(name);
+        }
+    }
 }
 
 fn fabric(ui: &mut Ui, editor: &mut Editor) {

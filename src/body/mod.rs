@@ -102,8 +102,8 @@ pub struct Body {
     pub skeleton: Skeleton,
     /// The meshes, in file order.
     pub parts: Vec<BodyPart>,
-    /// The file's meshes left out (by the options), in file order.
-    pub left_out: Vec<String>,
+    /// The names of every mesh of the file, kept or left out, in file order.
+    pub meshes: Vec<String>,
     /// The chosen stack's animation, if it animates anything.
     pub motion: Option<Motion>,
     /// Every animation stack of the file, in file order.

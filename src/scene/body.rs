@@ -31,16 +31,27 @@ pub struct SceneBody {
     pub loaded: LoadedBody,
 }
 
-/// What a body file gave the scene: its meshes, those left out, and how
-/// its motion fits.
+/// What a body file gave the scene: its meshes, its animation stacks, and
+/// how its motion fits.
 #[derive(Clone, Debug, Default)]
 pub struct LoadedBody {
     /// The meshes in the collider, in file order (one for a motion cache).
     pub parts: Vec<PartSummary>,
-    /// The file's meshes left out by `parts` / `exclude`.
-    pub left_out: Vec<String>,
+    /// Every mesh of the file, kept or not, in file order.
+    pub meshes: Vec<String>,
+    /// The animation stacks of the file whose motion plays, in file order.
+    pub stacks: Vec<String>,
+    /// The stack that plays, if any.
+    pub stack: Option<String>,
     /// Bones of the motion the body lacks (motion reuse), for reports.
     pub unmatched_bones: Vec<String>,
+}
+
+impl LoadedBody {
+    /// The file's meshes `parts` / `exclude` left out, in file order.
+    pub fn left_out(&self) -> impl Iterator<Item = &str> {
+        self.meshes.iter().map(String::as_str).filter(|m| !self.parts.iter().any(|p| p.name == *m))
+    }
 }
 
 /// One mesh of a scene's body.
@@ -114,16 +125,18 @@ pub fn load_body(
             stack: spec.stack.clone().filter(|_| spec.motion.is_none()),
         };
         let body = read_body(&path, &options)?;
-        let motion = match &spec.motion {
+        let (motion, stacks) = match &spec.motion {
             Some(other) => {
                 let source = read_motion(&base_dir.join(other), spec.stack.as_deref())?;
-                Some(source.motion.ok_or_else(|| {
+                let motion = source.motion.ok_or_else(|| {
                     BodyError::Invalid(format!("{} has no animation to reuse", base_dir.join(other).display()))
-                })?)
+                })?;
+                (Some(motion), source.stacks)
             }
-            None => body.motion.clone(),
+            None => (body.motion.clone(), body.stacks.clone()),
         };
         let unmatched = motion.as_ref().map(|m| m.bone_match(&body.skeleton).missing_in_skeleton).unwrap_or_default();
+        let motion_name = motion.as_ref().map(|m| m.name.clone());
         let animation = match motion {
             Some(m) => Some(sample(&body, &m, spec, fps, duration_s)?),
             None => None,
@@ -138,7 +151,13 @@ pub fn load_body(
                 triangles: p.triangles.clone(),
             })
             .collect();
-        let loaded = LoadedBody { parts, left_out: body.left_out.clone(), unmatched_bones: unmatched };
+        let loaded = LoadedBody {
+            parts,
+            meshes: body.meshes.clone(),
+            stacks: stacks.into_iter().map(|s| s.name).collect(),
+            stack: motion_name,
+            unmatched_bones: unmatched,
+        };
         (body.mesh.triangles, animation, body.mesh.positions, body.mesh.surface, loaded)
     };
     let vertices = match &animation {

@@ -90,8 +90,12 @@ pub fn summary(scene: &Scene) -> String {
         let parts: Vec<String> =
             b.loaded.parts.iter().map(|p| format!("{} ({}, {} vertices)", p.name, p.kind, p.vertices.len())).collect();
         let _ = writeln!(out, "  meshes: {}", parts.join(", "));
-        if !b.loaded.left_out.is_empty() {
-            let _ = writeln!(out, "  meshes left out: {}", b.loaded.left_out.join(", "));
+        let left_out: Vec<&str> = b.loaded.left_out().collect();
+        if !left_out.is_empty() {
+            let _ = writeln!(out, "  meshes left out: {}", left_out.join(", "));
+        }
+        if let Some(stack) = &b.loaded.stack {
+            let _ = writeln!(out, "  animation stack: '{stack}' (of {})", b.loaded.stacks.len());
         }
         if !b.loaded.unmatched_bones.is_empty() {
             let missing = b.loaded.unmatched_bones.join(", ");

@@ -63,6 +63,34 @@ impl Editor {
         self.edit_scene(|file| {
             if let Some(body) = file.bodies.first_mut() {
                 body.file = path;
+                // Mesh and stack names belong to the file replaced.
+                (body.parts, body.exclude) = (None, Vec::new());
+                body.stack = body.stack.take().filter(|_| body.motion.is_some());
+            }
+        });
+    }
+
+    /// Keeps (`keep`) or leaves out the first body's mesh `name`.
+    pub fn keep_body_mesh(&mut self, name: &str, keep: bool) {
+        self.edit_scene(|file| {
+            let Some(body) = file.bodies.first_mut() else { return };
+            body.exclude.retain(|m| m != name);
+            if let Some(parts) = &mut body.parts {
+                parts.retain(|m| m != name);
+                if keep {
+                    parts.push(name.to_owned());
+                }
+            } else if !keep {
+                body.exclude.push(name.to_owned());
+            }
+        });
+    }
+
+    /// Plays the first body's animation stack `name` (of its motion file when it has one).
+    pub fn use_stack(&mut self, name: String) {
+        self.edit_scene(|file| {
+            if let Some(body) = file.bodies.first_mut() {
+                body.stack = Some(name);
             }
         });
     }
@@ -75,6 +103,7 @@ impl Editor {
         self.edit_scene(|file| {
             if let Some(body) = file.bodies.first_mut() {
                 body.motion = Some(path);
+                body.stack = None;
             }
         });
     }

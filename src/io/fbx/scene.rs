@@ -67,8 +67,7 @@ pub fn body(document: &Document, name: String, options: &BodyOptions) -> Result<
         return Err(Problem::NoMesh);
     }
     let kept = kept_meshes(&meshes, options)?;
-    let left_out: Vec<String> =
-        meshes.iter().map(|(m, _, _)| m.name.clone()).filter(|n| !kept.iter().any(|(m, _, _)| &m.name == n)).collect();
+    let all_meshes: Vec<String> = meshes.iter().map(|(m, _, _)| m.name.clone()).collect();
     set_bind_matrices(document, &mut hierarchy);
     let height = skeleton_height(&hierarchy.skeleton, &up_in_file);
     let motion = chosen_motion(document, &hierarchy, options.stack.as_deref(), height)?;
@@ -94,7 +93,8 @@ pub fn body(document: &Document, name: String, options: &BodyOptions) -> Result<
     let stacks = stack_summaries(document);
     let source = describe(document, &application);
     let skeleton = hierarchy.skeleton;
-    let mut body = Body { name, source, mesh, skeleton, parts, left_out, motion, stacks, world_from_file, up_in_file };
+    let mut body =
+        Body { name, source, mesh, skeleton, parts, meshes: all_meshes, motion, stacks, world_from_file, up_in_file };
     body.mesh.positions = body.bind_pose();
     Ok(body)
 }
