@@ -24,12 +24,15 @@ pub fn motion_of(path: &Path, stack: Option<&str>) -> Result<Motion, Failure> {
 pub fn run_body(path: &Path, motion_path: Option<&Path>, stack: Option<&str>) -> Result<(), Failure> {
     let own_stack = if motion_path.is_none() { stack } else { None };
     let options = BodyOptions { stack: own_stack.map(str::to_owned), ..Default::default() };
+    let started = std::time::Instant::now();
     let body = match read_body(path, &options) {
         Ok(body) => body,
         Err(FbxError::NoMesh { .. }) => return describe_motion_file(path, own_stack),
         Err(e) => return Err(input(e)),
     };
+    let read_ms = started.elapsed().as_secs_f64() * 1e3;
     describe_body(path, &body);
+    println!("read in {read_ms:.1} ms");
     let motion = match motion_path {
         Some(other) => motion_of(other, stack)?,
         None => match body.motion.clone() {
