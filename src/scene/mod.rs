@@ -146,7 +146,7 @@ pub enum SceneError {
         /// Body name.
         body: String,
         /// The body problem (it names its file).
-        source: BodyError,
+        source: Box<BodyError>,
     },
     /// A value is out of range or inconsistent.
     #[error("scene {origin}: {what}: {problem}")]
@@ -350,8 +350,12 @@ impl Resolver<'_> {
         if let Some(mu) = spec.friction {
             self.check(&format!("{what}: friction"), mu, |m| (0.0..=10.0).contains(&m), "0 ≤ friction ≤ 10")?;
         }
-        let (collider, surface, loaded) = load_body(spec, self.base_dir, file.time.fps, file.time.duration_s)
-            .map_err(|source| SceneError::Body { origin: self.origin.to_owned(), body: spec.name.clone(), source })?;
+        let (collider, surface, loaded) =
+            load_body(spec, self.base_dir, file.time.fps, file.time.duration_s).map_err(|source| SceneError::Body {
+                origin: self.origin.to_owned(),
+                body: spec.name.clone(),
+                source: Box::new(source),
+            })?;
         meshes.push(collider);
         let origin = self.base_dir.join(&spec.file).display().to_string();
         Ok(SceneBody { collider: meshes.len() - 1, surface, origin, loaded })

@@ -260,8 +260,8 @@ pub fn read_curve(node: &Node, unit: f64) -> Result<Curve, String> {
     let attributes = key_attributes(node, times.len())?;
     let mut curve = Curve { keys: Vec::with_capacity(times.len()), ..Default::default() };
     let mut incoming = (0.0, 1.0 / 3.0); // the left slope and weight the previous key hands on
-    for k in 0..times.len() {
-        let (key, next_incoming) = key_with_tangents(&times_s, &values, k, attributes[k], incoming);
+    for (k, &attribute) in attributes.iter().enumerate() {
+        let (key, next_incoming) = key_with_tangents(&times_s, &values, k, attribute, incoming);
         curve.keys.push(key);
         incoming = next_incoming;
     }

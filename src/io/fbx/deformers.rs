@@ -42,12 +42,22 @@ pub fn vertex_cache(document: &Document, geometry: &Object) -> Option<String> {
     Some(file.unwrap_or_else(|| "an external file".into()))
 }
 
-/// The first skin of `geometry`: its clusters as stored, its skinning type
-/// and per-vertex dual-quaternion shares.
-pub fn stored_skin<'a>(
-    document: &'a Document,
-    geometry: &Object,
-) -> Result<Option<(Vec<StoredCluster<'a>>, SkinningMethod, Vec<(i64, f64)>)>, String> {
+/// A skin as stored: its clusters, skinning type and per-vertex
+/// dual-quaternion shares (vertex, share).
+pub struct StoredSkin<'a> {
+    /// The clusters, in connection order.
+    pub clusters: Vec<StoredCluster<'a>>,
+    /// `SkinningType`.
+    pub method: SkinningMethod,
+    /// `Indexes` and `BlendWeights` paired.
+    pub shares: Vec<(i64, f64)>,
+}
+
+/// A cluster's bone: its index in the skeleton and its bind `file_from_bone`.
+pub type BoneOf<'a> = dyn Fn(&Object) -> Option<(usize, Matrix4<f64>)> + 'a;
+
+/// The first skin of `geometry`, as stored.
+pub fn stored_skin<'a>(document: &'a Document, geometry: &Object) -> Result<Option<StoredSkin<'a>>, String> {
     let Some(skin) = deformers(document, geometry, "Skin").next() else { return Ok(None) };
     let node = document.node(skin);
     let method = match node.child_string("SkinningType") {
@@ -75,7 +85,7 @@ pub fn stored_skin<'a>(
         let transform_link = matrix(node.child_value("TransformLink"));
         clusters.push(StoredCluster { bone, transform, transform_link, weights });
     }
-    Ok(Some((clusters, method, shares)))
+    Ok(Some(StoredSkin { clusters, method, shares }))
 }
 
 /// A 4×4 matrix stored as 16 finite numbers, column by column.
@@ -88,17 +98,16 @@ pub fn matrix(value: Option<&Value>) -> Option<Matrix4<f64>> {
 /// `bone_of` gives each cluster's bone index, `mesh_at_bind` the
 /// mesh node's `file_from_node` when a cluster lacks its `Transform`.
 pub fn skin(
-    stored: &[StoredCluster<'_>],
-    method: SkinningMethod,
-    shares: &[(i64, f64)],
+    stored: &StoredSkin<'_>,
     vertex_count: usize,
     geometric: &Matrix4<f64>,
-    bone_of: &dyn Fn(&Object) -> Option<(usize, Matrix4<f64>)>,
+    bone_of: &BoneOf<'_>,
     mesh_at_bind: &Matrix4<f64>,
 ) -> Skin {
+    let (method, shares) = (stored.method, &stored.shares);
     let mut clusters = Vec::new();
     let mut weights: Vec<Vec<(u32, f64)>> = vec![Vec::new(); vertex_count];
-    for c in stored {
+    for c in &stored.clusters {
         let Some((bone, bone_bind)) = bone_of(c.bone) else { continue };
         let bone_from_mesh = match (c.transform, c.transform_link) {
             (Some(transform), Some(_)) => transform,
@@ -117,7 +126,7 @@ pub fn skin(
     let mut share = Vec::new();
     if !shares.is_empty() {
         share = vec![default_share; vertex_count];
-        for &(vertex, s) in shares {
+        for &(vertex, s) in shares.iter() {
             if let Some(slot) = usize::try_from(vertex).ok().and_then(|v| share.get_mut(v)) {
                 *slot = if s.is_finite() { s.clamp(0.0, 1.0) } else { default_share };
             }

@@ -117,7 +117,9 @@ fn material_layer(node: &Node, polygon_count: usize) -> Vec<usize> {
 /// Fans every polygon of three or more corners into triangles, grouped by
 /// material (file order within a material), with their corners' UVs.
 fn fan(geometry: &mut Geometry, uvs: Option<&UvLayer>, materials: &[usize]) {
-    let mut by_material: BTreeMap<usize, Vec<([u32; 3], [u32; 3])>> = BTreeMap::new();
+    // Per material, each triangle's points and UVs.
+    type Corners = ([u32; 3], [u32; 3]);
+    let mut by_material: BTreeMap<usize, Vec<Corners>> = BTreeMap::new();
     for (p, bounds) in geometry.polygon_starts.windows(2).enumerate() {
         let (first, end) = (bounds[0] as usize, bounds[1] as usize);
         for k in first + 1..end.saturating_sub(1) {

@@ -363,16 +363,17 @@ fn part(
     let vertex_count = geometry.positions.len();
     let bind = hierarchy.skeleton.bind_matrices();
     let skin = match stored_skin(document, geometry_object).map_err(|e| format!("mesh '{}': {e}", model.name))? {
-        Some((clusters, method, shares)) => {
+        Some(stored) => {
             let bone_of = |bone: &Object| {
                 let index = hierarchy.bone_of.get(&bone.id).copied()?;
                 Some((index, bind[index]))
             };
-            let mut skin = skin(&clusters, method, &shares, vertex_count, &geometric, &bone_of, &bind[node]);
+            let mut skin = skin(&stored, vertex_count, &geometric, &bone_of, &bind[node]);
             if application.starts_with("Maya") {
                 // The mesh's place when it was bound (its geometry matrix,
                 // shared by every instance of it).
-                let bound = clusters.iter().find_map(|c| Some(c.transform_link? * c.transform?)).unwrap_or(bind[node]);
+                let bound =
+                    stored.clusters.iter().find_map(|c| Some(c.transform_link? * c.transform?)).unwrap_or(bind[node]);
                 skin.node_at_bind_inverse = bound.try_inverse();
             }
             (!skin.clusters.is_empty()).then_some(skin)
