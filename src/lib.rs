@@ -14,6 +14,7 @@ pub mod app;
 pub mod bake;
 pub mod bench;
 pub mod body;
+pub mod export;
 pub mod fabric_lab;
 pub mod io;
 pub mod mesh;

@@ -72,6 +72,39 @@ enum Command {
         /// same, bit for bit, as a bake that never stopped.
         #[arg(long)]
         resume: bool,
+        /// Once the bake is complete, also export it: `usd`, `gltf`, `mdd`,
+        /// comma separated (the files go into --out, named after the scene).
+        #[arg(long, value_name = "FORMATS")]
+        export: Option<String>,
+    },
+    /// Export a finished bake folder for other tools: USD (.usda: Maya,
+    /// Houdini, Unreal, Omniverse, Blender), glTF (.glb: browsers, three.js,
+    /// Blender) or MDD (one per garment: Marvelous Designer, Houdini, Modo),
+    /// with the body it was simulated on.
+    Export {
+        /// The bake folder (from `drape bake`).
+        dir: PathBuf,
+        /// `usd`, `gltf` or `mdd` (several, comma separated, without --out).
+        #[arg(long)]
+        format: String,
+        /// The file to write (the folder for MDD); default: in DIR, named after the scene.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Frames to export, `A..B` (both included) or one frame `N` (default: all).
+        #[arg(long)]
+        frames: Option<String>,
+        /// Leave the body out (garments and colliders only).
+        #[arg(long)]
+        no_body: bool,
+        /// glTF: a morph target every K frames, weights animated linearly between them.
+        #[arg(long, default_value_t = 1)]
+        every: usize,
+        /// glTF: positions and normals as 16-bit integers (KHR_mesh_quantization).
+        #[arg(long)]
+        quantize: bool,
+        /// The scene the bake was made from (default: the one its summary.json names).
+        #[arg(long)]
+        scene: Option<PathBuf>,
     },
     /// Validate a scene and its assets, and print what they contain.
     Check {
@@ -324,7 +357,33 @@ fn main() -> ExitCode {
             let screenshot = screenshot.map(|path| drape::app::Screenshot { path, after_frames: screenshot_after });
             run_edit(scene, screenshot)
         }
-        Command::Bake { scene, out, frames, resume } => run_bake(&scene, &out, frames, resume),
+        Command::Bake { scene, out, frames, resume, export } => {
+            run_bake(&scene, &out, frames, resume).and_then(|()| match export {
+                Some(formats) => {
+                    let options = cli::export::ExportOptions {
+                        out: None,
+                        frames: None,
+                        no_body: false,
+                        every: 1,
+                        quantize: false,
+                        scene: None,
+                    };
+                    cli::export::run_export(&out, &cli::export::parse_formats(&formats)?, &options)
+                }
+                None => Ok(()),
+            })
+        }
+        Command::Export { dir, format, out, frames, no_body, every, quantize, scene } => {
+            let options = cli::export::ExportOptions {
+                out: out.as_deref(),
+                frames: frames.as_deref(),
+                no_body,
+                every,
+                quantize,
+                scene: scene.as_deref(),
+            };
+            cli::export::parse_formats(&format).and_then(|formats| cli::export::run_export(&dir, &formats, &options))
+        }
         Command::Check { scene } => run_check(&scene),
         Command::CheckBake { dir, scene, json } => run_check_bake(&dir, scene.as_deref(), json.as_deref()),
         Command::Bench {
@@ -633,7 +692,7 @@ fn parse_size(text: &str) -> Result<(u32, u32), Failure> {
 }
 
 /// Parses `A..B` (inclusive) or `N` against the `last` frame available.
-fn parse_frames(text: Option<&str>, last: usize) -> Result<std::ops::RangeInclusive<usize>, Failure> {
+pub(crate) fn parse_frames(text: Option<&str>, last: usize) -> Result<std::ops::RangeInclusive<usize>, Failure> {
     let Some(text) = text else { return Ok(0..=last) };
     let bad = |why: &str| Failure::Input(format!("--frames {text}: {why}"));
     let number = |s: &str| s.trim().parse::<usize>().map_err(|_| bad("expected A..B or N, frame numbers from 0"));

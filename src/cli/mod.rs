@@ -2,3 +2,4 @@
 //! `main.rs`).
 
 pub mod body;
+pub mod export;

@@ -2,6 +2,7 @@
 
 pub mod atomic;
 pub mod fbx;
+pub mod mdd;
 pub mod motion_cache;
 pub mod obj;
 pub mod pc2;

@@ -8,6 +8,7 @@
 
 pub mod generate;
 pub mod normals;
+pub mod seams;
 pub mod topology;
 pub mod validate;
 pub mod weld;

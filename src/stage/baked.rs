@@ -68,6 +68,26 @@ impl BakedFrames {
         Ok(BakedFrames { caches, fps: scene.fps })
     }
 
+    /// Frames held in memory (each every garment's positions, concatenated
+    /// in scene order, m), as the editor has them, stored as the caches would.
+    pub fn from_positions(scene: &Scene, frames: &[Vec<Vector3<f64>>]) -> BakedFrames {
+        let mut caches = Vec::with_capacity(scene.garments.len());
+        let mut offset = 0;
+        for garment in &scene.garments {
+            let points = garment.mesh.vertex_count();
+            let samples = frames
+                .iter()
+                .map(|f| {
+                    let slice = f.get(offset..offset + points).unwrap_or_default();
+                    slice.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect()
+                })
+                .collect();
+            caches.push(PointCache { start_frame: 0.0, sample_rate: 1.0, points, samples });
+            offset += points;
+        }
+        BakedFrames { caches, fps: scene.fps }
+    }
+
     /// Number of frames every garment has.
     pub fn frame_count(&self) -> usize {
         self.caches.iter().map(|c| c.samples.len()).min().unwrap_or(0)
@@ -76,6 +96,11 @@ impl BakedFrames {
     /// Time of `frame`, s.
     pub fn time(&self, frame: usize) -> f64 {
         frame as f64 / self.fps
+    }
+
+    /// Garment `garment`'s positions at `frame`, m, as the cache stores them.
+    pub fn garment(&self, garment: usize, frame: usize) -> Option<&[[f32; 3]]> {
+        self.caches.get(garment)?.samples.get(frame).map(Vec::as_slice)
     }
 
     /// Every garment's positions at `frame`, concatenated in scene order, m.

@@ -20,6 +20,7 @@ use nalgebra::{Isometry3, Vector3};
 
 use self::tessellate::shape_mesh;
 use crate::mesh::normals::{VertexTriangles, vertex_normals};
+use crate::mesh::seams::split_at_uv_seams;
 use crate::mesh::{Part, Surface, TriMesh};
 use crate::render::camera::{DEFAULT_FOV_Y_DEG, DEFAULT_PITCH_DEG, DEFAULT_YAW_DEG};
 use crate::render::{Bounds, DrawMesh, LightRig, Material, OrbitCamera, RenderError, Renderer, Vertex, View};
@@ -345,33 +346,21 @@ fn whole_part(name: &str, mesh: &TriMesh) -> Part {
 /// The drawn mesh of one part of a mesh: a vertex per distinct (vertex, UV)
 /// corner, so texture seams stay sharp while positions stay shared.
 fn piece_mesh(name: &str, mesh: &TriMesh, part: &Part, material: Material) -> (DrawMesh, Vec<u32>) {
-    let surface = &mesh.surface;
-    let mut index_of: HashMap<(u32, u32), u32> = HashMap::new();
-    let (mut vertices, mut garment_vertex, mut indices) = (Vec::new(), Vec::new(), Vec::new());
-    let range = part.first_triangle..part.first_triangle + part.triangle_count;
-    for t in range.clone().filter(|&t| t < mesh.triangles.len()) {
-        for k in 0..3 {
-            let v = mesh.triangles[t][k];
-            let uv_index = surface.triangle_uvs.get(t).map_or(u32::MAX, |uvs| uvs[k]);
-            let next = vertices.len() as u32;
-            let id = *index_of.entry((v, uv_index)).or_insert_with(|| {
-                let uv = surface.uvs.get(uv_index as usize).map_or([0.0; 2], |&[u, w]| [u, 1.0 - w]);
-                vertices.push(Vertex { position: [0.0; 3], normal: [0.0, 1.0, 0.0], uv });
-                garment_vertex.push(v);
-                next
-            });
-            indices.push(id);
-        }
-    }
+    let split = split_at_uv_seams(mesh, part.first_triangle..part.first_triangle + part.triangle_count);
+    let vertices = split
+        .uvs
+        .iter()
+        .map(|&[u, v]| Vertex { position: [0.0; 3], normal: [0.0, 1.0, 0.0], uv: [u, 1.0 - v] })
+        .collect();
     let draw = DrawMesh {
         name: name.to_owned(),
         vertices,
-        indices,
+        indices: split.indices,
         material,
         world_from_model: Mat4::IDENTITY,
         casts_shadow: true,
     };
-    (draw, garment_vertex)
+    (draw, split.vertices)
 }
 
 /// The ground: a large square on the plane's surface with grid lines.
