@@ -507,3 +507,33 @@ fn a_characters_meshes_and_stacks_are_chosen_in_the_scene_panel() {
     let body = &h.state().scene.bodies[0].loaded;
     assert_eq!((body.stack.as_deref(), h.state().scene.file.bodies[0].stack.as_deref()), (Some("Idle"), Some("Idle")));
 }
+
+/// The Export panel's USD, glTF and MDD buttons write the simulated frames
+/// for other tools into the export folder, each file whole and holding
+/// every frame (the formats' own checks are in tests/exports.rs).
+#[test]
+fn the_export_panel_writes_usd_gltf_and_mdd_of_the_simulated_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the bake", |e| e.run == RunState::Idle);
+    let frames = h.state().timeline.len();
+    let out = dir.path().join("for other tools");
+    h.get_by_role_and_label(Role::TextInput, "Folder").set_text_value_accesskit(&out.display().to_string());
+    h.run_steps(2);
+    for label in ["USD", "glTF", "MDD"] {
+        h.get_by_label(label).click();
+        h.run_steps(2);
+        wait_for_export(&mut h);
+    }
+    let usda = std::fs::read_to_string(out.join("small.usda")).unwrap();
+    assert!(usda.starts_with("#usda 1.0") && usda.contains(&format!("endTimeCode = {}", frames - 1)));
+    assert_eq!(&std::fs::read(out.join("small.glb")).unwrap()[..4], b"glTF");
+    let mdd = drape::io::mdd::read_mdd(&std::fs::read(out.join("cloth.mdd")).unwrap()).unwrap();
+    assert_eq!(mdd.frames.len(), frames);
+    let last = h.state().timeline.newest().unwrap().positions.clone();
+    let written = mdd.frames[frames - 1][5];
+    assert_eq!(written, [last[5].x as f32, last[5].y as f32, last[5].z as f32], "the newest frame, as simulated");
+}

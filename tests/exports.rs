@@ -221,6 +221,7 @@ fn a_position_that_is_not_a_number_never_reaches_a_file() {
     let count = scene.garments[0].mesh.vertex_count();
     let mut frames = vec![scene.garments[0].mesh.positions.clone(); 3];
     frames[2][7] = Vector3::new(f64::NAN, 0.0, 0.0);
+    let frames: Vec<&[Vector3<f64>]> = frames.iter().map(Vec::as_slice).collect();
     let baked = BakedFrames::from_positions(&scene, &frames);
     let dir = tempfile::tempdir().unwrap();
     for format in [Format::Usd, Format::Gltf] {

@@ -1,6 +1,6 @@
 //! Exporting the simulated frames from the editor, on a thread of its own:
-//! the bake folder (OBJ sequence, PC2 point caches, summary) and PNG frames
-//! rendered offscreen.
+//! the bake folder (OBJ sequence, PC2 point caches, summary), USD, glTF or
+//! MDD files for other tools, and PNG frames rendered offscreen.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -19,6 +19,8 @@ use crate::stage::offscreen::{OffscreenStage, write_png};
 pub enum ExportKind {
     /// OBJ sequence, PC2 point caches and summary.json (as `drape bake` writes).
     Geometry,
+    /// A file for other tools (USD, glTF; MDD per garment), with the body.
+    Format(crate::export::Format),
     /// PNG frames of the viewport's light rig, `frame_NNNN.png`.
     Images {
         /// Width, pixels.
@@ -34,6 +36,7 @@ pub fn start(kind: ExportKind, scene: Scene, frames: Vec<Frame>, rig: LightRig, 
     Job::start(frames.len(), move |stop, progress| {
         match kind {
             ExportKind::Geometry => write_geometry(&scene, &frames, &dir, stop, progress)?,
+            ExportKind::Format(format) => write_format(format, &scene, &frames, &dir, stop, progress)?,
             ExportKind::Images { width, height } => {
                 write_images(&scene, &frames, rig, (width, height), &dir, stop, progress)?
             }
@@ -61,6 +64,23 @@ fn write_geometry(
     let records: Vec<FrameRecord> = frames.iter().skip(1).map(|f| f.record.clone()).collect();
     let summary = BakeSummary::new(scene, &records, scene.frame_count, None);
     folder.finish(&summary).map_err(|e| e.to_string())
+}
+
+fn write_format(
+    format: crate::export::Format,
+    scene: &Scene,
+    frames: &[Frame],
+    dir: &Path,
+    stop: &AtomicBool,
+    progress: &dyn Fn(usize),
+) -> Result<(), String> {
+    use crate::export::{ExportRequest, export};
+    let positions: Vec<&[nalgebra::Vector3<f64>]> = frames.iter().map(|f| f.positions.as_slice()).collect();
+    let baked = crate::stage::baked::BakedFrames::from_positions(scene, &positions);
+    // The job counts frames; the export counts meshes × frames.
+    let count = frames.len();
+    let report = |done: usize, total: usize| progress(done * count / total.max(1));
+    export(scene, &baked, &ExportRequest::new(format), dir, &report, stop).map(drop).map_err(|e| e.to_string())
 }
 
 fn write_images(

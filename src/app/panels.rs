@@ -11,6 +11,7 @@ use super::editor::{Editor, Quality, RunState};
 use super::export::ExportKind;
 use super::fabric_panel;
 use super::stats::overlay_lines;
+use crate::export::Format;
 use crate::render::OrbitCamera;
 use crate::scene::preset::Preset;
 
@@ -456,6 +457,19 @@ fn export(ui: &mut Ui, editor: &mut Editor) {
         if ui.add_enabled(free, egui::Button::new("PNG frames")).on_hover_text("1280×720, the current light").clicked()
         {
             editor.export(ExportKind::Images { width: 1280, height: 720 });
+        }
+    });
+    ui.horizontal(|ui| {
+        let free = editor.export.is_none();
+        let formats = [
+            (Format::Usd, "USD", "One .usda with the body: Maya, Houdini, Unreal, Omniverse, Blender"),
+            (Format::Gltf, "glTF", "One .glb with the body, a morph target per frame: browsers, three.js, Blender"),
+            (Format::Mdd, "MDD", "A point cache per garment: Marvelous Designer, Houdini, Modo"),
+        ];
+        for (format, label, tip) in formats {
+            if ui.add_enabled(free, egui::Button::new(label)).on_hover_text(tip).clicked() {
+                editor.export(ExportKind::Format(format));
+            }
         }
     });
     let mut cancel = false;

@@ -70,7 +70,7 @@ impl BakedFrames {
 
     /// Frames held in memory (each every garment's positions, concatenated
     /// in scene order, m), as the editor has them, stored as the caches would.
-    pub fn from_positions(scene: &Scene, frames: &[Vec<Vector3<f64>>]) -> BakedFrames {
+    pub fn from_positions(scene: &Scene, frames: &[&[Vector3<f64>]]) -> BakedFrames {
         let mut caches = Vec::with_capacity(scene.garments.len());
         let mut offset = 0;
         for garment in &scene.garments {
