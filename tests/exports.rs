@@ -94,6 +94,7 @@ fn gltf_passes_the_khronos_validator_and_each_morph_target_is_its_frame() {
     assert!(report["largest_difference_m"].as_f64().unwrap() < 2.5e-7, "{report}");
     assert_eq!(report["targets"].as_u64(), Some(12));
     assert_eq!(report["weights_one_hot"].as_bool(), Some(true));
+    assert_eq!(report["vertex_map_matches_the_obj"].as_bool(), Some(true), "_DRAPE_VERTEX: {report}");
     assert_eq!(report["sheen"].as_bool(), Some(true));
     assert_eq!(report["nodes"], serde_json::json!(["skirt", "body", "ground"]));
 

@@ -113,6 +113,7 @@ const VEC3: Kind = Kind {
 const VEC2: Kind = Kind { shape: Type::Vec2, stride: 8, size: 8, ..VEC3 };
 const SHORT3: Kind = Kind { component: ComponentType::I16, normalized: true, stride: 8, size: 6, ..VEC3 };
 const SCALARS: Kind = Kind { shape: Type::Scalar, target: None, stride: 4, size: 4, ..VEC3 };
+const VERTEX_INDEX: Kind = Kind { shape: Type::Scalar, stride: 4, size: 4, ..VEC3 };
 const INDICES: Kind = Kind {
     component: ComponentType::U32,
     shape: Type::Scalar,
@@ -330,6 +331,11 @@ fn mesh_node(
     let uvs: Vec<f32> = split.uvs.iter().flat_map(|&[u, v]| [u, 1.0 - v]).collect();
     let texcoord =
         (!mesh.surface.uvs.is_empty()).then(|| builder.accessor(&f32_bytes(&uvs), split.uvs.len(), VEC2, None));
+    // Which of the bake's (welded) vertices each split vertex is: the map
+    // back to the OBJ and the point caches (as floats: glTF attributes
+    // cannot be 32-bit integers; exact up to 16 million vertices).
+    let welded: Vec<f32> = split.vertices.iter().map(|&v| v as f32).collect();
+    let welded = builder.accessor(&f32_bytes(&welded), split.vertices.len(), VERTEX_INDEX, None);
     let mut targets = Vec::new();
     for Shape { points: shape, normals } in &shapes[1..] {
         let offsets: Vec<Vector3<f64>> = shape.iter().zip(base).map(|(a, b)| a - b).collect();
@@ -353,6 +359,7 @@ fn mesh_node(
         if let Some(t) = texcoord {
             attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), t);
         }
+        attributes.insert(Valid(json::mesh::Semantic::Extras("DRAPE_VERTEX".into())), welded);
         primitives.push(json::mesh::Primitive {
             attributes,
             extensions: None,

@@ -157,6 +157,7 @@ def check_gltf(bake, file, garment):
             if corner not in seen:
                 seen.add(corner)
                 order.append(corner[0])
+    welded = read_accessor(gltf, blob, getattr(prim.attributes, "_DRAPE_VERTEX"))[:, 0].astype(np.int64)
     names = (mesh.extras or {}).get("targetNames", [])
     frames = [0] + [int(n.split("_")[1]) for n in names]
     worst = float(np.abs(base - cache[frames[0]][order]).max())
@@ -183,6 +184,7 @@ def check_gltf(bake, file, garment):
         "frames": frames,
         "largest_difference_m": worst,
         "weights_one_hot": weights_ok,
+        "vertex_map_matches_the_obj": bool(np.array_equal(welded, np.array(order))),
         "sheen": "KHR_materials_sheen" in (material.extensions or {}),
         "nodes": [n.name for n in gltf.nodes],
         "extensions_required": gltf.extensionsRequired or [],
