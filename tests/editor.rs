@@ -87,7 +87,7 @@ fn moving_the_stretch_slider_changes_the_workers_fabric() {
     wait_until(&mut h, "the worker to take the new stiffness", |e| {
         e.simulated_fabrics[0].stretch_stiffness_n_per_m == 3000.0
     });
-    assert!(h.state().dirty, "an edit marks the scene unsaved");
+    assert!(h.state().dirty(), "an edit marks the scene unsaved");
 }
 
 /// The collision panel (PAPER Fig. 10c): the garment's contact thickness and
@@ -345,7 +345,7 @@ fn a_saved_scene_reopens_to_the_same_bake_and_the_export_holds_it() {
 
     h.get_by_label("Save").click();
     h.run_steps(2);
-    assert!(!h.state().dirty, "saved");
+    assert!(!h.state().dirty(), "saved");
     let reopened = Scene::load(&dir.path().join("small.toml")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(reopened.garments[0].fabric.bend_stiffness_n_m, 4e-5);
     assert_eq!(reopened.steps_per_frame, 4, "Final quality: twice the scene's 2 steps");
@@ -467,7 +467,9 @@ fn a_dropped_file_is_used_for_what_it_is_or_refused() {
     assert!(editor.messages.iter().any(|m| m.error && m.text.contains("notes.txt")));
     assert!(!editor.is_loading());
     drape::app::browse::dropped(&mut editor, dir.path().join("walk.fbx"));
-    assert!(editor.messages.iter().any(|m| m.text.contains("no body")), "this scene has no body to replace");
+    editor.finish_loading();
+    assert!(editor.messages.iter().any(|m| m.error && m.text.contains("walk.fbx")), "a missing body is named");
+    assert!(editor.scene.file.bodies.is_empty() && !editor.dirty(), "a failed load leaves the scene unmodified");
     let skirt = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/garments/skirt.obj");
     drape::app::browse::dropped(&mut editor, skirt);
     editor.finish_loading();
@@ -496,7 +498,7 @@ fn a_characters_meshes_and_stacks_are_chosen_in_the_scene_panel() {
     h.run_steps(2);
     assert_eq!(h.state().scene.file.bodies[0].exclude, ["Eye_L"]);
     assert_eq!(vertices(h.state()), before - 114, "the eye's vertices left the collider");
-    assert!(h.state().dirty, "the scene is marked changed");
+    assert!(h.state().dirty(), "the scene is marked changed");
 
     h.get_by_label("Animation").click();
     h.run_steps(2);
@@ -536,4 +538,144 @@ fn the_export_panel_writes_usd_gltf_and_mdd_of_the_simulated_frames() {
     let last = h.state().timeline.newest().unwrap().positions.clone();
     let written = mdd.frames[frames - 1][5];
     assert_eq!(written, [last[5].x as f32, last[5].y as f32, last[5].z as f32], "the newest frame, as simulated");
+}
+
+/// Ctrl+Z puts a dragged slider back in one step (the drag's values
+/// coalesce), the running simulation gets the fabric back, the scene is no
+/// longer marked unsaved; Ctrl+Shift+Z and the Edit menu redo and undo it.
+#[test]
+fn ctrl_z_restores_a_sliders_value_and_the_workers_fabric() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    let stiffness = |e: &Editor| e.simulated_fabrics[0].stretch_stiffness_n_per_m;
+    for value in [2000.0, 2600.0, 3000.0] {
+        h.get_by_role_and_label(Role::Slider, "Stretch stiffness").set_value_accesskit(value);
+        h.run_steps(2);
+    }
+    wait_until(&mut h, "the worker to take 3000 N/m", |e| stiffness(e) == 3000.0);
+    assert!(h.state().title().ends_with(" •"), "{}", h.state().title());
+
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(slider_value(&h, "Stretch stiffness"), 1500.0, "one undo takes the whole drag back");
+    wait_until(&mut h, "the worker to take cotton's 1500 N/m again", |e| stiffness(e) == 1500.0);
+    assert!(!h.state().dirty(), "back at the saved value: nothing unsaved");
+    assert_eq!(h.state().title(), "drape — small");
+
+    h.key_press_modifiers(egui::Modifiers::COMMAND | egui::Modifiers::SHIFT, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(slider_value(&h, "Stretch stiffness"), 3000.0, "redone");
+    wait_until(&mut h, "the worker to take 3000 N/m again", |e| stiffness(e) == 3000.0);
+
+    h.get_by_label("Edit").click();
+    h.run_steps(2);
+    h.get_by_label_contains("Undo Stretch stiffness of cloth").click();
+    h.run_steps(2);
+    assert_eq!(slider_value(&h, "Stretch stiffness"), 1500.0, "undone from the menu");
+}
+
+/// Space plays and pauses; typing a space in a path field does not.
+#[test]
+fn space_toggles_play_but_not_while_typing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.key_press(egui::Key::Space);
+    h.run_steps(1);
+    assert!(h.state().timeline.playing, "Space plays");
+    h.key_press(egui::Key::Space);
+    h.run_steps(1);
+    assert!(!h.state().timeline.playing, "Space pauses");
+    h.get_by_role_and_label(Role::TextInput, "Scene").focus();
+    h.run_steps(1);
+    h.key_press(egui::Key::Space);
+    h.run_steps(1);
+    assert!(!h.state().timeline.playing, "a space typed in a field is text");
+}
+
+/// Opening another scene with unsaved changes asks; Cancel keeps every
+/// change; Discard opens it and the title follows.
+#[test]
+fn opening_a_scene_with_unsaved_changes_asks_and_cancel_keeps_everything() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("other.toml"), SMALL_SCENE.replace("\"cloth\"", "\"shawl\"")).unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::Slider, "Air damping").set_value_accesskit(1.0);
+    h.run_steps(2);
+    let other = dir.path().join("other.toml").display().to_string();
+    h.state_mut().paths.scene = other.clone();
+    h.run_steps(1);
+    h.get_by_label("Open").click();
+    h.run_steps(3);
+    h.get_by_label("Unsaved changes");
+    h.get_by_label("Cancel").click();
+    h.run_steps(3);
+    let editor = h.state();
+    assert!(!editor.is_loading() && editor.pending.is_none(), "nothing opened");
+    assert_eq!((editor.scene.name.as_str(), editor.scene.garments[0].name.as_str()), ("small", "cloth"));
+    assert_eq!(editor.scene.garments[0].fabric.air_damping_per_s, 1.0, "the change is kept");
+    assert_eq!(editor.title(), "drape — small •");
+
+    h.get_by_label("Open").click();
+    h.run_steps(3);
+    h.get_by_label("Discard").click();
+    h.run_steps(2);
+    h.state_mut().finish_loading();
+    h.run_steps(2);
+    assert_eq!(h.state().scene.garments[0].name, "shawl");
+    assert_eq!(h.state().title(), "drape — other", "the title names the scene opened, saved");
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(h.state().scene.garments[0].name, "shawl", "opening starts a new history");
+}
+
+/// The fraction of the viewport's height the box around `points` fills
+/// through the editor's camera, and whether all of it is in view.
+fn projected_height(editor: &Editor, points: &[nalgebra::Vector3<f64>]) -> (f32, bool) {
+    let camera = editor.shown_camera();
+    let clip_from_world = camera.projection(editor.viewport_aspect, 10.0) * camera.view();
+    let ndc: Vec<glam::Vec3> = points
+        .iter()
+        .map(|p| clip_from_world.project_point3(glam::Vec3::new(p.x as f32, p.y as f32, p.z as f32)))
+        .collect();
+    let (low, high) = ndc.iter().fold((f32::MAX, f32::MIN), |(lo, hi), p| (lo.min(p.y), hi.max(p.y)));
+    let inside = ndc.iter().all(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0);
+    ((high - low) / 2.0, inside)
+}
+
+/// F frames the body where it is at the frame shown, not the walk: its
+/// projected box fills at least 60 % of the viewport's height and all of it
+/// is in view; the side views and "follow" keep it there as it walks on.
+#[test]
+fn frame_fits_the_body_at_the_frame_shown() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/skirt_walk.toml");
+    let mut h = harness(Editor::new(Scene::load(&path).unwrap()));
+    h.run_steps(2);
+    wait_until(&mut h, "frame 0", |e| !e.timeline.is_empty());
+    h.get_by_role_and_label(Role::CheckBox, "Preview the motion alone").click();
+    h.run_steps(2);
+    h.state_mut().timeline.seek(90);
+    h.key_press(egui::Key::F);
+    h.run_steps(2);
+    let body = |e: &Editor, t: f64| e.scene.mesh_colliders[e.scene.bodies[0].collider].world_vertices(t);
+    let at_90 = body(h.state(), 3.0);
+    let (height, inside) = projected_height(h.state(), &at_90);
+    assert!(
+        inside && height >= 0.6,
+        "the body at frame 90 fills {:.0} % of the height, in view: {inside}",
+        height * 100.0
+    );
+
+    h.key_press(egui::Key::Num1);
+    h.run_steps(2);
+    let (height, inside) = projected_height(h.state(), &at_90);
+    assert!(inside && height >= 0.6, "front view: {:.0} %, in view: {inside}", height * 100.0);
+    let walked = h.state().figure.shift(3.0, 4.0).length();
+    assert!(walked > 0.3, "the body walks on ({walked} m in a second)");
+    h.state_mut().timeline.seek(120);
+    h.run_steps(2);
+    let (height, inside) = projected_height(h.state(), &body(h.state(), 4.0));
+    assert!(inside && height >= 0.5, "followed a second later: {:.0} %, in view: {inside}", height * 100.0);
 }

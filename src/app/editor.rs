@@ -3,8 +3,14 @@
 //! messages. Drawing is in [`super::panels`]; this module owns no GPU and no
 //! window, so UI tests drive it directly.
 
+mod actions;
+mod camera;
+mod history;
 mod jobs;
 mod scene_edits;
+
+pub use self::actions::Action;
+pub use self::history::{Document, History};
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::Receiver;
@@ -22,6 +28,7 @@ use crate::scene::Scene;
 use crate::scene::file::{MeshSpec, SceneFile};
 use crate::scene::preset::Preset;
 use crate::sim::fabric::Fabric;
+use crate::stage::figure::FigurePath;
 
 /// The simulation's effort, one choice for designers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,12 +151,19 @@ pub struct Editor {
     pub camera: CameraControl,
     /// The scene's own framing of the viewport (set by the viewport).
     pub framed: Option<OrbitCamera>,
+    /// Where the figure goes over the range (a following camera tracks it).
+    pub figure: FigurePath,
+    /// The viewport's width over its height (set by the panels).
+    pub viewport_aspect: f32,
     /// Bumped whenever the drawn scene must be rebuilt (new scene, new look).
     pub generation: u64,
     /// Messages to show.
     pub messages: Vec<Message>,
-    /// Changes since the scene was opened or saved.
-    pub dirty: bool,
+    /// The scene file as last opened or saved (every setting in it): the
+    /// scene is unsaved while the document differs from it.
+    saved: SceneFile,
+    /// Undo and redo.
+    pub history: History,
     /// The path fields of the panels.
     pub paths: PathFields,
     /// An export in progress (its result: the folder).
@@ -161,15 +175,31 @@ pub struct Editor {
     /// A reference run in progress.
     pub reference_job: Option<Job<Reference>>,
     /// A scene being loaded or re-resolved in the background.
-    loading: Option<Receiver<Result<Scene, String>>>,
+    loading: Option<(scene_edits::Loading, Receiver<Result<Scene, String>>)>,
     /// The scene file of the edit being resolved in the background: the
     /// panels show it and later edits build on it, so a second edit made
     /// before the first is loaded does not undo it.
     edited: Option<SceneFile>,
     /// The window should close (set once the user confirmed).
     pub quit: bool,
-    /// Asking whether to discard unsaved changes.
-    pub confirm_quit: bool,
+    /// What waits for the user's answer on unsaved changes.
+    pub pending: Option<Pending>,
+    /// The Help ▸ Keyboard window is open.
+    pub show_keyboard: bool,
+}
+
+/// An action that would lose unsaved changes, waiting for the user to say
+/// whether to save them first.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Pending {
+    /// Close the window.
+    Quit,
+    /// Open this scene file.
+    Open(PathBuf),
+    /// Read the scene file again from disk.
+    Reload,
+    /// Start an untitled scene.
+    New,
 }
 
 impl Editor {
@@ -185,6 +215,9 @@ impl Editor {
         let worker = Worker::start(scene.clone());
         let time_step_s = finest_time_step(&scene);
         let simulated_fabrics = scene.garments.iter().map(|g| g.fabric.clone()).collect();
+        let saved = scene.to_file();
+        let history = History::new(Document { file: saved.clone(), quality: Quality::Balanced });
+        let figure = FigurePath::new(&scene);
         let mut editor = Editor {
             scene,
             base_effort,
@@ -200,9 +233,12 @@ impl Editor {
             rig: 0,
             camera: CameraControl::default(),
             framed: None,
+            figure,
+            viewport_aspect: 1.5,
             generation: 0,
             messages: Vec::new(),
-            dirty: false,
+            saved,
+            history,
             paths,
             export: None,
             browse: None,
@@ -211,13 +247,17 @@ impl Editor {
             loading: None,
             edited: None,
             quit: false,
-            confirm_quit: false,
+            pending: None,
+            show_keyboard: false,
         };
         editor.fill_paths();
         editor
     }
 
     fn fill_paths(&mut self) {
+        if let Some(source) = &self.scene.source {
+            self.paths.scene = source.display().to_string();
+        }
         self.garment = self.garment.min(self.scene.garments.len().saturating_sub(1));
         self.paths.garment = match self.scene.file.garments.get(self.garment).map(|g| &g.mesh) {
             Some(MeshSpec::Obj(obj)) => obj.display().to_string(),
@@ -340,24 +380,38 @@ impl Editor {
         }
     }
 
-    /// Sends the selected garment's edited fabric to the simulation, if valid.
-    pub fn fabric_changed(&mut self) {
+    /// Sends the selected garment's edited fabric (its `parameter` changed)
+    /// to the simulation, if valid, and records the edit.
+    pub fn fabric_changed(&mut self, parameter: &str) {
+        if self.send_fabric() {
+            let name = self.scene.garments.get(self.garment).map_or("", |g| g.name.as_str());
+            let label = format!("{parameter} of {name}");
+            self.commit(&label);
+        }
+    }
+
+    /// Sends the selected garment's fabric to the simulation; false (and a
+    /// message) when a value is out of range.
+    fn send_fabric(&mut self) -> bool {
         let g = self.garment;
-        let Some(garment) = self.scene.garments.get(g) else { return };
+        let Some(garment) = self.scene.garments.get(g) else { return false };
         match garment.fabric.validate() {
             Ok(()) => {
                 self.worker.send(Command::SetFabric { garment: g, fabric: Box::new(garment.fabric.clone()) });
-                self.dirty = true;
                 self.forget_reference();
             }
-            Err(e) => return self.tell(format!("garment '{}': {e}", garment.name), true),
+            Err(e) => {
+                self.tell(format!("garment '{}': {e}", garment.name), true);
+                return false;
+            }
         }
         let finest = finest_time_step(&self.scene);
         if finest != self.time_step_s {
             self.time_step_s = finest;
             self.base_effort.0 = steps_for(self.scene.frame_duration(), finest);
-            self.set_quality(self.quality);
+            self.set_effort(self.quality);
         }
+        true
     }
 
     /// Gives the selected garment a built-in preset (or a preset file).
@@ -374,7 +428,9 @@ impl Editor {
                     spec.fabric = toml::Table::new();
                     garment.preset = preset;
                     self.generation += 1;
-                    self.fabric_changed();
+                    if self.send_fabric() {
+                        self.commit(&format!("preset {reference}"));
+                    }
                 }
             }
             Err(e) => self.tell(e.to_string(), true),
@@ -394,25 +450,56 @@ impl Editor {
         }
     }
 
-    /// Sets the simulation's effort from the next frame on.
+    /// Sets the simulation's effort from the next frame on, as an edit.
     pub fn set_quality(&mut self, quality: Quality) {
+        self.set_effort(quality);
+        self.commit(&format!("quality {}", quality.label()));
+    }
+
+    /// Sets the simulation's effort from the next frame on.
+    fn set_effort(&mut self, quality: Quality) {
         self.quality = quality;
         let (steps_per_frame, tolerance) = quality.effort(self.base_effort.0, self.base_effort.1);
         self.scene.steps_per_frame = steps_per_frame;
         self.scene.solver.tolerance = tolerance;
         self.worker.send(Command::SetEffort { steps_per_frame, tolerance });
-        self.dirty = true;
     }
 
     /// The window asks to close: yes unless there are unsaved changes, in
     /// which case the user is asked first.
     pub fn request_quit(&mut self) -> bool {
-        if self.dirty && !self.quit {
-            self.confirm_quit = true;
-            false
-        } else {
-            true
+        if self.quit || !self.dirty() {
+            return true;
         }
+        self.pending = Some(Pending::Quit);
+        false
+    }
+
+    /// Does `action` now, or, with unsaved changes, asks the user first.
+    pub fn unless_unsaved(&mut self, action: Pending) {
+        match self.dirty() {
+            true => self.pending = Some(action),
+            false => self.carry_out(action),
+        }
+    }
+
+    /// Does `action` (the user answered, or nothing was unsaved).
+    pub fn carry_out(&mut self, action: Pending) {
+        self.pending = None;
+        match action {
+            Pending::Quit => self.quit = true,
+            Pending::Open(path) => self.open_scene_now(path),
+            Pending::Reload => match self.scene.source.clone() {
+                Some(path) => self.open_scene_now(path),
+                None => self.tell("this scene has no file to reload: save it first", true),
+            },
+            Pending::New => self.new_scene(),
+        }
+    }
+
+    /// The window's title: `drape — SCENE`, with `•` while unsaved.
+    pub fn title(&self) -> String {
+        format!("drape — {}{}", self.scene.name, if self.dirty() { " •" } else { "" })
     }
 
     /// Waits until the worker reports (tests and scripted use): returns false

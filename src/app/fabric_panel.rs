@@ -144,14 +144,18 @@ pub fn parameter(label: &str) -> Option<&'static Parameter> {
 
 /// Draws the sliders of `fabric`; returns true when one changed. A value
 /// typed outside the physical range is refused by the caller's validation.
-pub fn sliders(ui: &mut egui::Ui, fabric: &mut Fabric) -> bool {
-    let mut changed = false;
+pub fn sliders(ui: &mut egui::Ui, fabric: &mut Fabric) -> Option<&'static str> {
+    let mut changed = None;
     egui::Grid::new("fabric parameters").num_columns(2).striped(true).show(ui, |ui| {
         for p in &PARAMETERS {
-            changed |= slider_row(ui, p, p.label, fabric);
+            if slider_row(ui, p, p.label, fabric) {
+                changed = Some(p.label);
+            }
         }
         let label = ui.label("Strain limit").on_hover_text(STRAIN_LIMIT_EFFECT);
-        changed |= strain_limit(ui, fabric, label.id);
+        if strain_limit(ui, fabric, label.id) {
+            changed = Some("Strain limit");
+        }
         ui.end_row();
     });
     changed
@@ -161,12 +165,14 @@ pub fn sliders(ui: &mut egui::Ui, fabric: &mut Fabric) -> bool {
 /// the collision panel, labelled "Contact friction" and "Contact
 /// thickness" (the fabric panel's own sliders keep their names); returns
 /// true when one changed.
-pub fn contact_sliders(ui: &mut egui::Ui, fabric: &mut Fabric) -> bool {
-    let mut changed = false;
+pub fn contact_sliders(ui: &mut egui::Ui, fabric: &mut Fabric) -> Option<&'static str> {
+    let mut changed = None;
     egui::Grid::new("contact parameters").num_columns(2).show(ui, |ui| {
         for (name, label) in [("Friction", "Contact friction"), ("Thickness", "Contact thickness")] {
-            if let Some(p) = parameter(name) {
-                changed |= slider_row(ui, p, label, fabric);
+            if let Some(p) = parameter(name)
+                && slider_row(ui, p, label, fabric)
+            {
+                changed = Some(p.label);
             }
         }
     });

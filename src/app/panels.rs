@@ -7,23 +7,20 @@ use std::path::PathBuf;
 use egui::{Align2, Color32, PointerButton, Rect, Sense, Ui, Vec2};
 
 use super::browse::Purpose;
-use super::editor::{Editor, Quality, RunState};
+use super::editor::{Editor, Pending, Quality, RunState};
 use super::export::ExportKind;
 use super::fabric_panel;
 use super::stats::overlay_lines;
 use crate::export::Format;
-use crate::render::OrbitCamera;
 use crate::scene::preset::Preset;
-
-/// The framing used for mouse control before the viewport has framed the scene.
-const FALLBACK_CAMERA: OrbitCamera =
-    OrbitCamera { target: glam::Vec3::ZERO, yaw_deg: 30.0, pitch_deg: 20.0, distance_m: 3.0, fov_y_deg: 27.0 };
 
 /// Draws the whole editor into `ui`, with the 3D view's image
 /// ([`super::blit::viewport_image`]) when `viewport_drawn` (a grey area
 /// otherwise, e.g. in UI tests without a GPU). Returns the viewport's size in
 /// physical pixels, for the next render.
 pub fn editor_ui(ui: &mut Ui, editor: &mut Editor, viewport_drawn: bool) -> [u32; 2] {
+    super::shortcuts::handle(ui.ctx(), editor);
+    egui::Panel::top("menu").show(ui, |ui| super::menu::menu_bar(ui, editor));
     egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, editor));
     egui::Panel::bottom("timeline").show(ui, |ui| timeline(ui, editor));
     egui::Panel::left("controls").resizable(true).default_size(340.0).show(ui, |ui| {
@@ -32,7 +29,8 @@ pub fn editor_ui(ui: &mut Ui, editor: &mut Editor, viewport_drawn: bool) -> [u32
     let size = egui::CentralPanel::no_frame().show(ui, |ui| viewport_ui(ui, editor, viewport_drawn)).inner;
     super::browse::show(ui.ctx(), editor);
     messages(ui.ctx(), editor);
-    quit_question(ui.ctx(), editor);
+    unsaved_question(ui.ctx(), editor);
+    super::menu::keyboard_window(ui.ctx(), editor);
     size
 }
 
@@ -74,7 +72,7 @@ fn toolbar(ui: &mut Ui, editor: &mut Editor) {
             ui.spinner();
             ui.label("loading…");
         }
-        let title = format!("{}{}", editor.scene.name, if editor.dirty { " •" } else { "" });
+        let title = format!("{}{}", editor.scene.name, if editor.dirty() { " •" } else { "" });
         ui.label(title).on_hover_text("• marks unsaved changes");
     });
 }
@@ -216,7 +214,7 @@ fn garment_fields(ui: &mut Ui, editor: &mut Editor) {
         ui.end_row();
     });
     if changed {
-        editor.edit_scene(|file| {
+        editor.edit_scene("garment placement", |file| {
             if let Some(spec) = file.garments.get_mut(g) {
                 (spec.translation_m, spec.rotation_deg, spec.scale) = (translation, rotation, scale);
             }
@@ -318,8 +316,8 @@ fn fabric(ui: &mut Ui, editor: &mut Editor) {
         editor.browse(Purpose::SaveFabric, &current);
     }
     let Some(garment) = editor.scene.garments.get_mut(g) else { return };
-    if fabric_panel::sliders(ui, &mut garment.fabric) {
-        editor.fabric_changed();
+    if let Some(parameter) = fabric_panel::sliders(ui, &mut garment.fabric) {
+        editor.fabric_changed(parameter);
     }
 }
 
@@ -327,9 +325,9 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
     let g = editor.garment;
     ui.label("The selected garment's contact, live (the same values as the fabric panel's):");
     if let Some(garment) = editor.scene.garments.get_mut(g)
-        && fabric_panel::contact_sliders(ui, &mut garment.fabric)
+        && let Some(parameter) = fabric_panel::contact_sliders(ui, &mut garment.fabric)
     {
-        editor.fabric_changed();
+        editor.fabric_changed(parameter);
     }
     ui.separator();
     ui.label("These restart the simulation:");
@@ -376,7 +374,7 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
         });
     });
     if changed {
-        editor.edit_scene(move |file| {
+        editor.edit_scene("collision settings", move |file| {
             file.collision = settings;
             if let Some(spec) = file.garments.get_mut(g) {
                 spec.self_collision = self_collision;
@@ -528,17 +526,19 @@ fn viewport_ui(ui: &mut Ui, editor: &mut Editor, drawn: bool) -> [u32; 2] {
     } else {
         painter.rect_filled(rect, 0.0, Color32::from_gray(40));
     }
-    let framed = editor.framed.unwrap_or(FALLBACK_CAMERA);
+    editor.viewport_aspect = rect.aspect_ratio();
+    let (shown, t) = (editor.shown_camera(), editor.shown_time_s());
     let delta = response.drag_delta();
     if response.dragged_by(PointerButton::Primary) {
-        editor.camera.orbit(framed, delta.x, delta.y);
+        editor.camera.orbit(shown, t, delta.x, delta.y);
     } else if response.dragged_by(PointerButton::Secondary) || response.dragged_by(PointerButton::Middle) {
-        editor.camera.pan(framed, delta.x, delta.y, rect.height());
+        editor.camera.pan(shown, t, delta.x, delta.y, rect.height());
     }
-    if response.hovered() {
+    if let Some(pointer) = response.hover_pos() {
         let scroll = ui.input(|i| i.smooth_scroll_delta.y);
         if scroll != 0.0 {
-            editor.camera.zoom(framed, scroll);
+            let at = (pointer - rect.center()) / (0.5 * rect.size());
+            editor.camera.zoom(shown, t, scroll, glam::Vec2::new(at.x, -at.y), rect.aspect_ratio());
         }
     }
     if response.double_clicked() {
@@ -588,26 +588,32 @@ fn messages(ctx: &egui::Context, editor: &mut Editor) {
     }
 }
 
-fn quit_question(ctx: &egui::Context, editor: &mut Editor) {
-    if !editor.confirm_quit {
-        return;
-    }
+/// The question asked before an action would lose unsaved changes.
+fn unsaved_question(ctx: &egui::Context, editor: &mut Editor) {
+    let Some(action) = editor.pending.clone() else { return };
+    let doing = match &action {
+        Pending::Quit => "quitting".to_owned(),
+        Pending::Open(path) => format!("opening {}", path.display()),
+        Pending::Reload => "reading the scene file again".to_owned(),
+        Pending::New => "starting a new scene".to_owned(),
+    };
     egui::Modal::new(egui::Id::unique("unsaved")).show(ctx, |ui| {
         ui.heading("Unsaved changes");
-        ui.label(format!("Save the changes to '{}' before quitting?", editor.scene.name));
+        ui.label(format!("Save the changes to '{}' before {doing}?", editor.scene.name));
         ui.horizontal(|ui| {
-            if ui.button("Save and quit").clicked() {
+            if ui.button("Save").clicked() {
                 let path = PathBuf::from(editor.paths.scene.trim());
                 editor.save_scene(&path);
-                editor.quit = !editor.dirty;
-                editor.confirm_quit = false;
+                match editor.dirty() {
+                    true => editor.pending = None,
+                    false => editor.carry_out(action.clone()),
+                }
             }
             if ui.button("Discard").clicked() {
-                editor.quit = true;
-                editor.confirm_quit = false;
+                editor.carry_out(action.clone());
             }
             if ui.button("Cancel").clicked() {
-                editor.confirm_quit = false;
+                editor.pending = None;
             }
         });
     });

@@ -102,7 +102,7 @@ impl Viewport {
         let Some(target) = &self.target else { return };
         let framed = stage.camera(target.aspect(), 0.0);
         editor.framed = Some(framed);
-        let camera = editor.camera.camera(framed);
+        let camera = editor.shown_camera();
         let current = editor.timeline.current();
         let Some(frame) = editor.timeline.shown() else { return };
         let time_s = editor.timeline.time_of(current);

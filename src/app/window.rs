@@ -77,6 +77,8 @@ struct Open {
     editor: Editor,
     last_frame: Instant,
     frames_drawn: u32,
+    /// The window's title as last set.
+    title: String,
     /// The last frame's UI, kept for a screenshot.
     last_paint: Option<(Vec<egui::ClippedPrimitive>, egui_wgpu::ScreenDescriptor)>,
 }
@@ -153,7 +155,7 @@ impl ApplicationHandler for App {
 impl Open {
     fn new(event_loop: &ActiveEventLoop, display: &OwnedDisplayHandle, editor: Editor) -> Result<Open, AppError> {
         let attributes = Window::default_attributes()
-            .with_title(format!("drape: {}", editor.scene.name))
+            .with_title(editor.title())
             .with_inner_size(winit::dpi::LogicalSize::new(1440.0, 860.0));
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| AppError::Window(e.to_string()))?);
         let descriptor = wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display.clone()));
@@ -192,6 +194,7 @@ impl Open {
             editor,
             last_frame: Instant::now(),
             frames_drawn: 0,
+            title: String::new(),
             last_paint: None,
         })
     }
@@ -234,6 +237,11 @@ impl Open {
         let mut viewport_size = self.viewport_size;
         let output = context.run_ui(input, |ui| viewport_size = editor_ui(ui, editor, drawn));
         self.viewport_size = viewport_size;
+        let title = self.editor.title();
+        if title != self.title {
+            self.window.set_title(&title);
+            self.title = title;
+        }
         self.egui.handle_platform_output(&self.window, output.platform_output);
         let jobs = context.tessellate(output.shapes, output.pixels_per_point);
         let frame = match self.surface.get_current_texture() {

@@ -119,6 +119,28 @@ pub struct BodySpec {
     pub friction: Option<f64>,
 }
 
+impl BodySpec {
+    /// A body read from `file` (relative to the scene's folder), every
+    /// other setting at its default.
+    pub fn new(file: PathBuf) -> BodySpec {
+        BodySpec {
+            name: default_body_name(),
+            file,
+            parts: None,
+            exclude: Vec::new(),
+            motion: None,
+            stack: None,
+            start_s: 0.0,
+            blend_in_s: 0.0,
+            speed: default_speed(),
+            cycle: false,
+            position_m: [0.0; 3],
+            rotation_deg: [0.0; 3],
+            friction: None,
+        }
+    }
+}
+
 fn default_speed() -> f64 {
     1.0
 }

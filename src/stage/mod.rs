@@ -8,6 +8,7 @@
 //! renderer draws plain meshes, the simulation knows nothing of drawing.
 
 pub mod baked;
+pub mod figure;
 pub mod offscreen;
 pub mod tessellate;
 
@@ -18,6 +19,7 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3};
 use nalgebra::{Isometry3, Vector3};
 
+use self::figure::FigurePath;
 use self::tessellate::shape_mesh;
 use crate::mesh::normals::{VertexTriangles, vertex_normals};
 use crate::mesh::seams::split_at_uv_seams;
@@ -77,7 +79,12 @@ pub struct Stage {
     garments: Vec<DeformingLook>,
     placed: Vec<PlacedMesh>,
     meshes: Vec<DrawMesh>,
+    /// Everything the figure sweeps over the range (shadows cover it).
     rest_bounds: Bounds,
+    /// The figure's box on the first frame (the camera frames it).
+    first_bounds: Bounds,
+    /// Where the figure goes (the camera follows it).
+    path: FigurePath,
     camera: CameraSpec,
 }
 
@@ -98,6 +105,8 @@ impl Stage {
             placed: Vec::new(),
             meshes: Vec::new(),
             rest_bounds: Bounds { min: Vec3::ZERO, max: Vec3::ZERO },
+            first_bounds: Bounds { min: Vec3::ZERO, max: Vec3::ZERO },
+            path: FigurePath::new(scene),
             camera: scene.file.camera.clone(),
         };
         let mut first_particle = 0;
@@ -146,7 +155,8 @@ impl Stage {
         }
         let rest: Vec<Vector3<f64>> = scene.garments.iter().flat_map(|g| g.mesh.positions.iter().copied()).collect();
         stage.pose_meshes(&rest, 0.0);
-        // Frame everything a body will sweep, not only where it starts.
+        stage.first_bounds = stage.bounds();
+        // Shadow everything a body will sweep, not only where it starts.
         let swept = scene.mesh_colliders.iter().filter_map(|c| {
             let animation = c.animation.as_ref()?;
             let pose = c.placement.world_from_local(0.0);
@@ -304,18 +314,21 @@ impl Stage {
     }
 
     /// The camera at time `t_s` for an image of `aspect`: the scene file's
-    /// orbit, with what it leaves out framed on the first frame.
+    /// orbit, with what it leaves out framed on the figure at the first
+    /// frame (a three-quarter view of its front), the target following the
+    /// figure as it walks.
     pub fn camera(&self, aspect: f32, t_s: f64) -> OrbitCamera {
         let spec = &self.camera;
-        let yaw = spec.yaw_deg.map_or(DEFAULT_YAW_DEG, |v| v as f32);
+        let yaw = spec.yaw_deg.map_or(self.path.front_yaw_deg() + DEFAULT_YAW_DEG, |v| v as f32);
         let pitch = spec.pitch_deg.map_or(DEFAULT_PITCH_DEG, |v| v as f32);
         let fov = spec.fov_deg.map_or(DEFAULT_FOV_Y_DEG, |v| v as f32);
-        let mut camera = OrbitCamera::framing(&self.rest_bounds, aspect, yaw, pitch, fov);
+        let mut camera = OrbitCamera::framing(&self.first_bounds, aspect, yaw, pitch, fov);
         if let Some(d) = spec.distance_m {
             camera.distance_m = d as f32;
         }
-        if let Some(target) = spec.target_m {
-            camera.target = Vec3::from(target.map(|c| c as f32));
+        match spec.target_m {
+            Some(target) => camera.target = Vec3::from(target.map(|c| c as f32)),
+            None => camera.target += self.path.shift(0.0, t_s),
         }
         if let Some(period) = spec.turntable_period_s {
             camera.yaw_deg += (360.0 * (t_s / period).fract()) as f32;

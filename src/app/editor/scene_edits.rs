@@ -4,13 +4,40 @@
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::channel;
 
-use super::{Editor, Quality, RunState, finest_time_step};
+use super::{Editor, Pending, Quality, RunState, finest_time_step};
 use crate::app::browse::{Browse, Purpose};
 use crate::app::timeline::Timeline;
 use crate::app::worker::Command;
 use crate::io::atomic::write_file;
 use crate::scene::Scene;
-use crate::scene::file::{MeshSpec, SceneFile};
+use crate::scene::file::{BodySpec, MeshSpec, SceneFile};
+use crate::stage::figure::FigurePath;
+
+/// The scene File ▸ New starts from.
+const NEW_SCENE: &str = r#"
+description = "A new scene: load a garment OBJ and a body FBX in the Scene panel."
+[time]
+fps = 30.0
+duration_s = 4.0
+[[garment]]
+name = "garment"
+preset = "cotton"
+mesh = { grid = { size_m = 1.0, resolution = 40 } }
+translation_m = [0.0, 1.0, 0.0]
+self_collision = true
+[[collider]]
+name = "ground"
+shape = "plane"
+"#;
+
+/// What a scene being loaded is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Loading {
+    /// Another scene file, opened: a new document.
+    Open,
+    /// The same scene after an edit (or an undo).
+    Edit,
+}
 
 impl Editor {
     /// The folder relative paths in the scene are resolved against.
@@ -18,25 +45,46 @@ impl Editor {
         self.scene.source.as_deref().and_then(Path::parent).map(Path::to_owned).unwrap_or_default()
     }
 
-    /// Opens the scene file at `path` in the background; the current scene
-    /// stays until it has loaded, and stays when it fails.
+    /// Opens the scene file at `path` in the background (asking first when
+    /// there are unsaved changes); the current scene stays until it has
+    /// loaded, and stays when it fails.
     pub fn open_scene(&mut self, path: PathBuf) {
-        self.start_loading(move || Scene::load(&path).map_err(|e| e.to_string()));
+        self.unless_unsaved(Pending::Open(path));
     }
 
-    /// Applies `edit` to the scene file and resolves it again in the
-    /// background (new garment mesh, body, transform, collision settings); on
-    /// failure the current scene stays and the error is shown.
-    pub fn edit_scene(&mut self, edit: impl FnOnce(&mut SceneFile)) {
+    /// Starts an untitled scene: a square of cotton over the ground, to
+    /// load a garment and a body into.
+    pub(super) fn new_scene(&mut self) {
+        let base = std::env::current_dir().unwrap_or_default();
+        let scene = Scene::parse(NEW_SCENE, "untitled", &base, "new scene").map_err(|e| e.to_string());
+        self.loaded(Loading::Open, scene);
+        self.paths.scene.clear();
+    }
+
+    /// Opens the scene file at `path` in the background, unsaved changes or not.
+    pub(super) fn open_scene_now(&mut self, path: PathBuf) {
+        self.start_loading(Loading::Open, move || Scene::load(&path).map_err(|e| e.to_string()));
+    }
+
+    /// Applies `edit` (named `label` in the history) to the scene file and
+    /// resolves it again in the background (new garment mesh, body,
+    /// transform, collision settings); on failure the current scene stays,
+    /// every field as it was, and the error is shown.
+    pub fn edit_scene(&mut self, label: &str, edit: impl FnOnce(&mut SceneFile)) {
         // Only an edit still loading leaves a file behind (every load's end
         // drops it).
         let mut file = self.edited.take().unwrap_or_else(|| self.scene.to_file());
         edit(&mut file);
+        self.resolve(file);
+        self.commit(label);
+    }
+
+    /// Resolves `file` as the scene in the background (an edit, or undo).
+    pub(super) fn resolve(&mut self, file: SceneFile) {
         let path = self.scene.source.clone().unwrap_or_else(|| PathBuf::from(format!("{}.toml", self.scene.name)));
         let resolved = file.clone();
-        self.start_loading(move || Scene::resolve(resolved, &path).map_err(|e| e.to_string()));
+        self.start_loading(Loading::Edit, move || Scene::resolve(resolved, &path).map_err(|e| e.to_string()));
         self.edited = Some(file);
-        self.dirty = true;
     }
 
     /// The scene file as the panels show it: with the edit being loaded, if
@@ -48,20 +96,20 @@ impl Editor {
     /// Replaces the selected garment's mesh with the OBJ at `path`.
     pub fn use_garment_mesh(&mut self, path: PathBuf) {
         let g = self.garment;
-        self.edit_scene(|file| {
+        self.edit_scene("load garment OBJ", |file| {
             if let Some(spec) = file.garments.get_mut(g) {
                 spec.mesh = MeshSpec::Obj(path);
             }
         });
     }
 
-    /// Replaces the first body with the FBX or motion cache at `path`.
+    /// Replaces the first body with the FBX or motion cache at `path` (or
+    /// adds it to a scene without one).
     pub fn use_body(&mut self, path: PathBuf) {
-        if self.scene.file.bodies.is_empty() {
-            return self.tell("this scene has no body to replace", true);
-        }
-        self.edit_scene(|file| {
-            if let Some(body) = file.bodies.first_mut() {
+        self.edit_scene("load body", |file| {
+            if file.bodies.is_empty() {
+                file.bodies.push(BodySpec::new(path));
+            } else if let Some(body) = file.bodies.first_mut() {
                 body.file = path;
                 // Mesh and stack names belong to the file replaced.
                 (body.parts, body.exclude) = (None, Vec::new());
@@ -72,7 +120,8 @@ impl Editor {
 
     /// Keeps (`keep`) or leaves out the first body's mesh `name`.
     pub fn keep_body_mesh(&mut self, name: &str, keep: bool) {
-        self.edit_scene(|file| {
+        let label = format!("{} body mesh {name}", if keep { "keep" } else { "leave out" });
+        self.edit_scene(&label, |file| {
             let Some(body) = file.bodies.first_mut() else { return };
             body.exclude.retain(|m| m != name);
             if let Some(parts) = &mut body.parts {
@@ -88,7 +137,7 @@ impl Editor {
 
     /// Plays the first body's animation stack `name` (of its motion file when it has one).
     pub fn use_stack(&mut self, name: String) {
-        self.edit_scene(|file| {
+        self.edit_scene("animation stack", |file| {
             if let Some(body) = file.bodies.first_mut() {
                 body.stack = Some(name);
             }
@@ -100,7 +149,7 @@ impl Editor {
         if self.scene.file.bodies.is_empty() {
             return self.tell("this scene has no body to drive", true);
         }
-        self.edit_scene(|file| {
+        self.edit_scene("use motion", |file| {
             if let Some(body) = file.bodies.first_mut() {
                 body.motion = Some(path);
                 body.stack = None;
@@ -108,22 +157,31 @@ impl Editor {
         });
     }
 
-    /// Opens a file dialog for `purpose`, starting where `current` (a path
-    /// field's text) points, else in the scene's folder.
+    /// Opens a file dialog for `purpose` in the folder of `current` (a path
+    /// field's text: a scene path as typed, relative to the working folder;
+    /// any other relative to the scene's folder), else in the scene's folder.
     pub fn browse(&mut self, purpose: Purpose, current: &str) {
         let base = self.base_dir();
         let current = Path::new(current.trim());
-        let start = if current.as_os_str().is_empty() { base } else { base.join(current) };
+        let start = match purpose {
+            Purpose::OpenScene | Purpose::SaveScene | Purpose::ExportFolder => current.to_owned(),
+            _ => base.join(current),
+        };
         let folder = if start.is_dir() { start } else { start.parent().map(Path::to_owned).unwrap_or_default() };
+        let folder = [folder, base].into_iter().find(|f| f.is_dir()).unwrap_or_else(|| PathBuf::from("."));
         self.browse = Some(Browse::open(purpose, &folder));
     }
 
-    pub(super) fn start_loading(&mut self, load: impl FnOnce() -> Result<Scene, String> + Send + 'static) {
+    pub(super) fn start_loading(
+        &mut self,
+        kind: Loading,
+        load: impl FnOnce() -> Result<Scene, String> + Send + 'static,
+    ) {
         let (sender, receiver) = channel();
         std::thread::spawn(move || {
             let _ = sender.send(load());
         });
-        self.loading = Some(receiver);
+        self.loading = Some((kind, receiver));
         self.edited = None;
     }
 
@@ -134,53 +192,57 @@ impl Editor {
 
     /// Waits for a scene being loaded (tests).
     pub fn finish_loading(&mut self) {
-        self.edited = None;
-        if let Some(Ok(result)) = self.loading.take().map(|receiver| receiver.recv()) {
-            self.loaded(result);
+        if let Some((kind, receiver)) = self.loading.take() {
+            let result = receiver.recv().unwrap_or_else(|_| Err("loading the scene failed unexpectedly".into()));
+            self.edited = None;
+            self.loaded(kind, result);
         }
     }
 
     pub(super) fn poll_loading(&mut self) {
-        let Some(receiver) = &self.loading else { return };
-        match receiver.try_recv() {
-            Ok(result) => {
-                (self.loading, self.edited) = (None, None);
-                self.loaded(result);
-            }
-            Err(std::sync::mpsc::TryRecvError::Empty) => {}
-            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
-                (self.loading, self.edited) = (None, None);
-                self.tell("loading the scene failed unexpectedly", true);
-            }
-        }
+        let Some((kind, receiver)) = &self.loading else { return };
+        let kind = *kind;
+        let result = match receiver.try_recv() {
+            Ok(result) => result,
+            Err(std::sync::mpsc::TryRecvError::Empty) => return,
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => Err("loading the scene failed unexpectedly".into()),
+        };
+        (self.loading, self.edited) = (None, None);
+        self.loaded(kind, result);
     }
 
-    pub(super) fn loaded(&mut self, result: Result<Scene, String>) {
-        match result {
-            Ok(scene) => {
-                let opened_other = scene.source != self.scene.source;
-                self.simulated_fabrics = scene.garments.iter().map(|g| g.fabric.clone()).collect();
-                self.base_effort = (scene.steps_per_frame, scene.solver.tolerance);
-                self.time_step_s = finest_time_step(&scene);
-                self.quality = Quality::Balanced;
-                self.timeline = Timeline::new(scene.fps, scene.frame_count);
-                self.scene = scene;
-                self.forget_reference();
-                self.worker.send(Command::Reset(Box::new(self.scene.clone())));
-                self.run = RunState::Idle;
-                self.generation += 1;
-                if opened_other {
-                    self.camera.frame_all();
-                    self.dirty = false;
-                    self.paths.export = format!("out/{}", self.scene.name);
+    pub(super) fn loaded(&mut self, kind: Loading, result: Result<Scene, String>) {
+        let scene = match result {
+            Ok(scene) => scene,
+            Err(e) => {
+                // Nothing changed: the fields show the scene as it is.
+                if kind == Loading::Edit {
+                    self.drop_last_step();
                 }
                 self.fill_paths();
-                if let Some(source) = &self.scene.source {
-                    self.paths.scene = source.display().to_string();
-                }
+                return self.tell(e, true);
             }
-            Err(e) => self.tell(e, true),
+        };
+        self.simulated_fabrics = scene.garments.iter().map(|g| g.fabric.clone()).collect();
+        self.time_step_s = finest_time_step(&scene);
+        self.timeline = Timeline::new(scene.fps, scene.frame_count);
+        self.figure = FigurePath::new(&scene);
+        self.scene = scene;
+        if kind == Loading::Open {
+            self.base_effort = (self.scene.steps_per_frame, self.scene.solver.tolerance);
+            self.quality = Quality::Balanced;
         }
+        self.forget_reference();
+        self.worker.send(Command::Reset(Box::new(self.scene.clone())));
+        self.run = RunState::Idle;
+        self.generation += 1;
+        if kind == Loading::Open {
+            self.camera.frame_all();
+            self.saved = self.scene.to_file();
+            self.forget_history();
+            self.paths.export = format!("out/{}", self.scene.name);
+        }
+        self.fill_paths();
     }
 
     /// Writes the scene file, with every current setting, to `path`.
@@ -191,7 +253,7 @@ impl Editor {
         };
         match write_file(path, |out| std::io::Write::write_all(out, text.as_bytes())) {
             Ok(()) => {
-                self.dirty = false;
+                self.saved = self.scene.to_file();
                 self.tell(format!("saved {}", path.display()), false);
             }
             Err(e) => self.tell(e.to_string(), true),
