@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use drape::app::Editor;
 use drape::app::blit::BlitPipeline;
-use drape::app::editor::RunState;
+use drape::app::editor::{FrameKind, RunState};
 use drape::app::fabric_panel::PARAMETERS;
 use drape::app::panels::editor_ui;
 use drape::app::viewport::Viewport;
@@ -678,4 +678,86 @@ fn frame_fits_the_body_at_the_frame_shown() {
     h.run_steps(2);
     let (height, inside) = projected_height(h.state(), &body(h.state(), 4.0));
     assert!(inside && height >= 0.5, "followed a second later: {:.0} %, in view: {inside}", height * 100.0);
+}
+
+/// The small scene lasting `duration_s`.
+fn small_scene_lasting(dir: &Path, duration_s: f64) -> Scene {
+    let path = dir.join("small.toml");
+    std::fs::write(&path, SMALL_SCENE.replace("duration_s = 0.5", &format!("duration_s = {duration_s}"))).unwrap();
+    Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A new bake cancelled part way gives the timeline back to the last
+/// complete bake, bit for bit, and Simulate goes on from its end, past the
+/// scene's range.
+#[test]
+fn a_cancelled_bake_keeps_the_previous_bake_and_simulate_goes_on_past_the_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene_lasting(dir.path(), 2.0)));
+    h.run_steps(2);
+    let frames = h.state().scene.frame_count;
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::B);
+    h.run_steps(2);
+    wait_until(&mut h, "the first bake", |e| e.run == RunState::Idle && e.timeline.last() == frames);
+    let baked: Vec<_> = h.state().timeline.frames().iter().map(|f| f.positions.clone()).collect();
+
+    h.get_by_role_and_label(Role::Slider, "Stretch stiffness").set_value_accesskit(400.0);
+    h.run_steps(2);
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the second bake to start", |e| matches!(e.run, RunState::Baking { done, .. } if done >= 3));
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the cancel", |e| e.run == RunState::Idle);
+    let editor = h.state();
+    assert_eq!(editor.timeline.len(), frames + 1, "every frame of the previous bake is back");
+    for (k, (kept, first)) in editor.timeline.frames().iter().zip(&baked).enumerate() {
+        assert_eq!(*kept.positions, **first, "frame {k} is the first bake's");
+    }
+    assert!(editor.messages.iter().any(|m| m.text.contains("previous bake is back")));
+
+    h.key_press_modifiers(egui::Modifiers::SHIFT, egui::Key::Space);
+    h.run_steps(2);
+    wait_until(&mut h, "frames past the end", |e| e.timeline.last() >= frames + 5);
+    h.key_press_modifiers(egui::Modifiers::SHIFT, egui::Key::Space);
+    h.run_steps(2);
+    wait_until(&mut h, "the pause", |e| e.run == RunState::Idle);
+    let editor = h.state();
+    let next = &editor.timeline.frame(frames + 1).unwrap().positions;
+    let step = baked[frames].iter().zip(next.iter()).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+    assert!(step < 0.01, "the first frame past the end goes on from the bake's last ({step} m in a frame)");
+}
+
+/// After a fabric change the frames simulated before it are stale (the
+/// timeline says so for the frame shown); new frames are not; "Re-simulate
+/// from here" drops the frames after the one shown and simulates on from it.
+#[test]
+fn frames_simulated_with_other_settings_are_marked_stale() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    let frames = h.state().scene.frame_count;
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the bake", |e| e.run == RunState::Idle && e.timeline.last() == frames);
+    assert!(h.state().frame_kinds().iter().all(|k| *k == FrameKind::Baked));
+    assert!(h.query_by_label("stale").is_none());
+
+    h.get_by_role_and_label(Role::ComboBox, "Preset").click();
+    h.run_steps(2);
+    h.get_by_label("silk").click();
+    h.run_steps(3);
+    assert!(h.state().frame_kinds().iter().all(|k| *k == FrameKind::Stale), "every frame was cotton");
+    h.get_by_label("stale");
+
+    h.state_mut().timeline.seek(5);
+    h.run_steps(2);
+    h.get_by_label("Re-simulate from here").click();
+    h.run_steps(2);
+    wait_until(&mut h, "silk frames", |e| e.timeline.last() >= 9);
+    h.state_mut().pause();
+    wait_until(&mut h, "the pause", |e| e.run == RunState::Idle);
+    let kinds = h.state().frame_kinds();
+    assert!(kinds[..=5].iter().all(|k| *k == FrameKind::Stale), "frames 0-5 stay cotton");
+    assert!(kinds[6..].iter().all(|k| *k == FrameKind::Simulated), "frames from 6 on are silk: {kinds:?}");
 }

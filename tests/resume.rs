@@ -70,6 +70,54 @@ fn a_simulation_taken_up_from_its_snapshot_goes_on_bit_identically() {
 }
 
 /// Starts `drape bake` of `frames` frames of drape_sphere into `dir`.
+/// Re-simulating from a frame (the editor's "Re-simulate from here") takes
+/// the state the editor kept of it, without the solver's factor (the next
+/// step rebuilds one): the simulation goes on as the run it left, to within
+/// the solver's tolerance (under 1 % of how far the cloth moves); the state is taken even while a fabric
+/// change blends in; a state of another cloth or with a NaN is refused.
+#[test]
+fn a_simulation_restarted_from_a_kept_frame_state_goes_on_as_before() {
+    let scene = Scene::load(&repo("assets/scenes/drape_sphere.toml")).unwrap();
+    let mut first = Baker::new(&scene).unwrap();
+    while first.frame() < 20 {
+        first.advance().unwrap();
+    }
+    let kept = first.simulator().state();
+    assert!(kept.factor.is_none(), "the factor is not kept per frame");
+    while first.frame() < 26 {
+        first.advance().unwrap();
+    }
+    let mut second = Baker::new(&scene).unwrap();
+    second.restart_from(20, &kept).unwrap();
+    while second.frame() < 26 {
+        second.advance().unwrap();
+    }
+    let distance = |a: &[nalgebra::Vector3<f64>], b: &[nalgebra::Vector3<f64>]| {
+        a.iter().zip(b).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max)
+    };
+    let apart = distance(first.simulator().positions(), second.simulator().positions());
+    let moved = distance(&kept.positions.iter().map(|&p| p.into()).collect::<Vec<_>>(), second.simulator().positions());
+    assert!(apart < 0.01 * moved && moved > 0.01, "{apart} m from the run it left after moving {moved} m");
+
+    let mut tuning = Baker::new(&scene).unwrap();
+    tuning.advance().unwrap();
+    let mut silk = scene.garments[0].fabric.clone();
+    silk.bend_stiffness_n_m *= 0.1;
+    tuning.set_fabric(0, silk).unwrap();
+    tuning.advance().unwrap();
+    assert!(tuning.simulator().snapshot().is_err(), "a bake snapshot waits for the blend");
+    let mut third = Baker::new(&scene).unwrap();
+    third.restart_from(2, &tuning.simulator().state()).unwrap();
+    assert!(third.restart_from(3, &kept).is_err(), "the state is not at frame 3's end");
+    let mut other = kept.clone();
+    other.positions.pop();
+    assert!(third.restart_from(20, &other).is_err(), "another cloth");
+    let mut poisoned = kept.clone();
+    poisoned.velocities[3][1] = f64::NAN;
+    let error = third.restart_from(20, &poisoned).unwrap_err();
+    assert!(error.to_string().contains("velocity"), "{error}");
+}
+
 fn start_bake(dir: &Path, frames: usize, resume: bool) -> Child {
     let scene = repo("assets/scenes/drape_sphere.toml");
     let mut command = Command::new(env!("CARGO_BIN_EXE_drape"));

@@ -7,10 +7,12 @@ mod actions;
 mod camera;
 mod history;
 mod jobs;
+mod runs;
 mod scene_edits;
 
 pub use self::actions::Action;
 pub use self::history::{Document, History};
+pub use self::runs::FrameKind;
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::Receiver;
@@ -21,7 +23,7 @@ use super::job::Job;
 use super::orbit::CameraControl;
 use super::reference::Reference;
 use super::timeline::Timeline;
-use super::worker::{Command, Event, Stop, Worker};
+use super::worker::{Command, Frame, Worker};
 use crate::io::atomic::write_file;
 use crate::render::{LightRig, OrbitCamera};
 use crate::scene::Scene;
@@ -186,6 +188,8 @@ pub struct Editor {
     pub pending: Option<Pending>,
     /// The Help ▸ Keyboard window is open.
     pub show_keyboard: bool,
+    /// The frames of the last bake that completed, kept while another runs.
+    last_bake: Option<Vec<Frame>>,
 }
 
 /// An action that would lose unsaved changes, waiting for the user to say
@@ -249,6 +253,7 @@ impl Editor {
             quit: false,
             pending: None,
             show_keyboard: false,
+            last_bake: None,
         };
         editor.fill_paths();
         editor
@@ -306,78 +311,6 @@ impl Editor {
             || self.loading.is_some()
             || self.export.is_some()
             || self.reference_job.is_some()
-    }
-
-    fn on_event(&mut self, event: Event) {
-        match event {
-            Event::Restarted(frame) => self.timeline.restart(frame),
-            Event::Frame(frame) => self.timeline.push(frame),
-            Event::BakeProgress { done, total } => {
-                let started = match self.run {
-                    RunState::Baking { started, .. } => started,
-                    _ => Instant::now(),
-                };
-                self.run = RunState::Baking { done, total, started };
-                self.bake_progress = Some((done, total));
-            }
-            Event::FabricSet { garment, fabric } => {
-                if let Some(f) = self.simulated_fabrics.get_mut(garment) {
-                    *f = *fabric;
-                }
-            }
-            Event::Stopped(stop) => {
-                let was_baking = matches!(self.run, RunState::Baking { .. });
-                self.run = RunState::Idle;
-                match stop {
-                    Stop::Finished if was_baking => self.tell(format!("baked {} frames", self.timeline.last()), false),
-                    Stop::Finished | Stop::ByUser => {}
-                    Stop::Failed(reason) => self.tell(format!("simulation stopped: {reason}"), true),
-                }
-            }
-            Event::Refused(reason) => self.tell(reason, true),
-        }
-    }
-
-    /// Runs the simulation live from the current state.
-    pub fn simulate(&mut self) {
-        if self.timeline.last() >= self.scene.frame_count {
-            self.tell("the last frame is reached: Reset to simulate again", false);
-            return;
-        }
-        self.timeline.playing = false;
-        self.timeline.seek(self.timeline.last());
-        self.worker.send(Command::Simulate);
-        self.run = RunState::Live;
-    }
-
-    /// Pauses a live run (or cancels a bake).
-    pub fn pause(&mut self) {
-        self.worker.send(Command::Pause);
-    }
-
-    /// Bakes the whole range from frame 0.
-    pub fn bake(&mut self) {
-        self.timeline.playing = false;
-        self.worker.send(Command::Bake);
-        let total = self.scene.frame_count;
-        self.run = RunState::Baking { done: 0, total, started: Instant::now() };
-    }
-
-    /// Back to frame 0 with the current parameters.
-    pub fn reset(&mut self) {
-        self.timeline.playing = false;
-        self.worker.send(Command::Reset(Box::new(self.scene.clone())));
-        self.run = RunState::Idle;
-    }
-
-    /// Estimated seconds left in a bake, from its pace so far.
-    pub fn bake_time_left_s(&self) -> Option<f64> {
-        match self.run {
-            RunState::Baking { done, total, started } if done > 0 => {
-                Some(started.elapsed().as_secs_f64() / done as f64 * (total - done.min(total)) as f64)
-            }
-            _ => None,
-        }
     }
 
     /// Sends the selected garment's edited fabric (its `parameter` changed)

@@ -23,6 +23,7 @@ pub mod reference;
 pub mod shortcuts;
 pub mod stats;
 pub mod timeline;
+pub mod timeline_bar;
 pub mod viewport;
 pub mod window;
 pub mod worker;

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use egui::{Align2, Color32, PointerButton, Rect, Sense, Ui, Vec2};
 
 use super::browse::Purpose;
-use super::editor::{Editor, Pending, Quality, RunState};
+use super::editor::{Editor, FrameKind, Pending, Quality, RunState};
 use super::export::ExportKind;
 use super::fabric_panel;
 use super::stats::overlay_lines;
@@ -237,9 +237,13 @@ fn vector_fields(ui: &mut Ui, v: &mut [f64; 3], speed: f64) -> bool {
 
 fn body_fields(ui: &mut Ui, editor: &mut Editor) {
     if editor.scene.file.bodies.is_empty() {
-        ui.label("No body in this scene.");
+        ui.label("No body in this scene yet.");
+        if let Some(path) = path_row(ui, editor, Field::Body, "Load body", "body.fbx or walk.motion") {
+            editor.use_body(path);
+        }
         return;
     }
+    after_the_motion(ui, editor);
     let mut body_only = editor.timeline.body_only;
     let tip = "Play the body's motion alone over the whole frame range, without the cloth";
     if ui.checkbox(&mut body_only, "Preview the motion alone").on_hover_text(tip).changed() {
@@ -257,6 +261,27 @@ fn body_fields(ui: &mut Ui, editor: &mut Editor) {
 
 /// The first body's meshes, each kept or left out by a tick, and its
 /// animation stacks to choose from.
+/// What the body does once its motion ends, while the cloth simulates on.
+fn after_the_motion(ui: &mut Ui, editor: &mut Editor) {
+    let cycles = editor.scene_file().bodies.first().is_some_and(|b| b.cycle);
+    let mut chosen = cycles;
+    let name = |cycle: bool| if cycle { "Loop the motion" } else { "Hold the last pose" };
+    egui::ComboBox::from_label("After the motion").selected_text(name(chosen)).show_ui(ui, |ui| {
+        for option in [false, true] {
+            ui.selectable_value(&mut chosen, option, name(option));
+        }
+    })
+    .response
+    .on_hover_text("What the body does when its motion ends and the cloth simulates on: loop a cycle such as an in-place walk, or stand still");
+    if chosen != cycles {
+        editor.edit_scene(if chosen { "loop the motion" } else { "hold the last pose" }, |file| {
+            if let Some(body) = file.bodies.first_mut() {
+                body.cycle = chosen;
+            }
+        });
+    }
+}
+
 fn body_meshes_ui(ui: &mut Ui, editor: &mut Editor) {
     let Some(loaded) = editor.scene.bodies.first().map(|b| b.loaded.clone()) else { return };
     if loaded.meshes.len() > 1 {
@@ -484,37 +509,78 @@ fn export(ui: &mut Ui, editor: &mut Editor) {
     }
 }
 
+/// Playback speeds offered, times real time.
+const SPEEDS: [f64; 6] = [0.1, 0.25, 0.5, 1.0, 2.0, 4.0];
+
 fn timeline(ui: &mut Ui, editor: &mut Editor) {
     ui.horizontal(|ui| {
+        playback_buttons(ui, editor);
+        ui.separator();
         let t = &mut editor.timeline;
-        let label = if t.playing { "Pause" } else { "Play" };
-        if ui.button(label).on_hover_text("Play the simulated frames").clicked() {
-            t.playing = !t.playing;
-        }
-        if ui.button("<").on_hover_text("Previous frame").clicked() {
-            t.step(-1);
-        }
-        if ui.button(">").on_hover_text("Next frame").clicked() {
-            t.step(1);
-        }
-        ui.checkbox(&mut t.looping, "Loop");
-        ui.add(egui::Slider::new(&mut t.speed, 0.1..=4.0).logarithmic(true).text("× speed"));
-        let mut frame = t.current();
-        let last = t.end().max(1);
-        let scrub = egui::Slider::new(&mut frame, 0..=last).text(format!("/ {} frames", t.range));
-        if ui.add_sized([ui.available_width() - 20.0, 20.0], scrub).changed() {
-            t.seek(frame);
-        }
-    });
-    if let RunState::Baking { done, total, .. } = editor.run {
-        ui.horizontal(|ui| {
-            let left = editor.bake_time_left_s().map_or(String::new(), |s| format!(", {s:.0} s left"));
-            let text = format!("bake {done}/{total}{left}");
-            ui.add(egui::ProgressBar::new(done as f32 / total.max(1) as f32).text(text).desired_width(400.0));
-            if ui.button("Cancel").clicked() {
-                editor.pause();
+        ui.checkbox(&mut t.looping, "Loop").on_hover_text("Play from the start again after the newest frame");
+        let mut speed = t.speed;
+        egui::ComboBox::from_label("Speed").selected_text(format!("{speed}×")).width(60.0).show_ui(ui, |ui| {
+            for s in SPEEDS {
+                ui.selectable_value(&mut speed, s, format!("{s}×"));
             }
         });
+        t.speed = speed;
+        ui.separator();
+        let (k, range) = (t.current(), t.range);
+        ui.label(format!("frame {k} of {range} · {:.2} s", t.time_of(k)));
+        if editor.shown_is_stale() {
+            ui.colored_label(super::timeline_bar::colour(Some(FrameKind::Stale)), "stale")
+                .on_hover_text("Simulated with other settings than the current ones: re-simulate to see them");
+        }
+        let resimulate = ui
+            .add_enabled(
+                k < editor.timeline.last() || editor.shown_is_stale(),
+                egui::Button::new("Re-simulate from here"),
+            )
+            .on_hover_text("Drop the frames after this one and simulate on from it with the current settings");
+        if resimulate.clicked() {
+            editor.resimulate_from_here();
+        }
+        job_progress(ui, editor);
+    });
+    let kinds = editor.frame_kinds();
+    let t = &mut editor.timeline;
+    let frames = t.range.max(t.last());
+    if let Some(frame) = super::timeline_bar::timeline_bar(ui, frames, &kinds, t.current()) {
+        t.seek(frame);
+    }
+}
+
+fn playback_buttons(ui: &mut Ui, editor: &mut Editor) {
+    let t = &mut editor.timeline;
+    if ui.button("|<").on_hover_text("First frame (Home)").clicked() {
+        t.seek(0);
+    }
+    if ui.button("<").on_hover_text("Previous frame (←)").clicked() {
+        t.step(-1);
+    }
+    let label = if t.playing { "Pause" } else { "Play" };
+    if ui.button(label).on_hover_text("Play the simulated frames (Space)").clicked() {
+        t.playing = !t.playing;
+    }
+    if ui.button(">").on_hover_text("Next frame (→)").clicked() {
+        t.step(1);
+    }
+    if ui.button(">|").on_hover_text("Newest frame (End)").clicked() {
+        t.seek(t.end());
+    }
+}
+
+/// The bake's and the export's progress, time left and Cancel.
+fn job_progress(ui: &mut Ui, editor: &mut Editor) {
+    if let RunState::Baking { done, total, .. } = editor.run {
+        ui.separator();
+        let left = editor.bake_time_left_s().map_or(String::new(), |s| format!(", {s:.0} s left"));
+        let text = format!("bake {done}/{total}{left}");
+        ui.add(egui::ProgressBar::new(done as f32 / total.max(1) as f32).text(text).desired_width(260.0));
+        if ui.button("Cancel").on_hover_text("Stop the bake: the last complete bake comes back (Esc)").clicked() {
+            editor.pause();
+        }
     }
 }
 

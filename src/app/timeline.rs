@@ -53,6 +53,20 @@ impl Timeline {
         self.phase = 0.0;
     }
 
+    /// Puts `frames` (frame 0 first) in place of the stored ones, the
+    /// playhead on the same frame where it can be.
+    pub fn replace(&mut self, frames: Vec<Frame>) {
+        self.frames = frames;
+        self.current = self.current.min(self.end());
+        self.phase = 0.0;
+    }
+
+    /// Drops the frames after `frame` (simulating again from it).
+    pub fn truncate_after(&mut self, frame: usize) {
+        self.frames.truncate(frame + 1);
+        self.current = self.current.min(self.end());
+    }
+
     /// Appends the next simulated frame; the playhead follows it when it was
     /// on the newest frame and not playing back.
     pub fn push(&mut self, frame: Frame) {
@@ -81,7 +95,7 @@ impl Timeline {
     /// The last frame the playhead can reach: the newest simulated frame, or
     /// the end of the range when previewing the body alone.
     pub fn end(&self) -> usize {
-        if self.body_only { self.range } else { self.last() }
+        if self.body_only { self.range.max(self.last()) } else { self.last() }
     }
 
     /// Leaves body-only preview with the playhead back on a simulated frame.
@@ -161,10 +175,18 @@ mod tests {
     use std::sync::Arc;
 
     use super::*;
+    use crate::app::worker::Settings;
     use crate::bake::FrameRecord;
+    use crate::sim::snapshot::Snapshot;
 
     fn frame(k: usize) -> Frame {
-        Frame { positions: Arc::new(Vec::new()), record: FrameRecord { frame: k, ..Default::default() } }
+        Frame {
+            positions: Arc::new(Vec::new()),
+            record: FrameRecord { frame: k, ..Default::default() },
+            state: Arc::new(Snapshot::default()),
+            settings: Arc::new(Settings::default()),
+            baked: false,
+        }
     }
 
     fn filled(count: usize) -> Timeline {

@@ -139,17 +139,34 @@ impl Baker {
     /// Takes the bake up at the end of frame `frame`, from the state `snapshot`
     /// a baker of the same scene had there ([`Simulator::snapshot`]).
     pub fn resume_at(&mut self, frame: usize, snapshot: &Snapshot) -> Result<(), SnapshotError> {
-        let expected = frame as f64 * self.frame_s;
-        if (snapshot.time_s - expected).abs() > 1e-6 * self.frame_s.max(expected) {
-            return Err(SnapshotError::Mismatch {
-                saved: format!("t = {} s", snapshot.time_s),
-                expected: format!("the end of frame {frame}, t = {expected} s"),
-            });
-        }
+        self.check_time(frame, snapshot)?;
         self.sim.resume_from(snapshot)?;
         self.last_positions.copy_from_slice(self.sim.positions());
         (self.frame, self.resumed) = (frame, true);
         Ok(())
+    }
+
+    /// Simulates again from the end of frame `frame`, whose state a run
+    /// of the same cloth kept ([`Simulator::state`]), with this baker's
+    /// settings.
+    pub fn restart_from(&mut self, frame: usize, state: &Snapshot) -> Result<(), SnapshotError> {
+        self.check_time(frame, state)?;
+        self.sim.restart_from(state)?;
+        self.last_positions.copy_from_slice(self.sim.positions());
+        self.frame = frame;
+        Ok(())
+    }
+
+    /// Refuses a state that is not at the end of frame `frame`.
+    fn check_time(&self, frame: usize, snapshot: &Snapshot) -> Result<(), SnapshotError> {
+        let expected = frame as f64 * self.frame_s;
+        match (snapshot.time_s - expected).abs() > 1e-6 * self.frame_s.max(expected) {
+            true => Err(SnapshotError::Mismatch {
+                saved: format!("t = {} s", snapshot.time_s),
+                expected: format!("the end of frame {frame}, t = {expected} s"),
+            }),
+            false => Ok(()),
+        }
     }
 
     /// The independent checker's count on the current state (none once the

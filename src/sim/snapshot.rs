@@ -14,7 +14,7 @@ use nalgebra::Vector3;
 use super::cholesky::{CholeskyError, FactorState};
 
 /// A simulator's state between two steps.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Snapshot {
     /// Simulated time, s.
     pub time_s: f64,

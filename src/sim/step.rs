@@ -704,6 +704,14 @@ impl Simulator {
         if self.ramp.is_some() {
             return Err(SnapshotError::TuningInProgress);
         }
+        Ok(Snapshot { factor: self.preconditioner.state(), ..self.state() })
+    }
+
+    /// Its state between steps without the kept factor (the next step
+    /// rebuilds one), taken even while a fabric change blends in: what the
+    /// editor keeps of each frame to simulate again from it
+    /// ([`Self::restart_from`]).
+    pub fn state(&self) -> Snapshot {
         let memory = self.collision.as_ref().map(|pipeline| {
             let mut memory = CollisionMemory::default();
             pipeline.save_memory(&mut memory);
@@ -711,7 +719,7 @@ impl Simulator {
         });
         let mut warm_start = to_arrays(&self.ws.velocity_change);
         warm_start.resize(self.x.len(), [0.0; 3]);
-        Ok(Snapshot {
+        Snapshot {
             time_s: self.time,
             positions: to_arrays(&self.x),
             velocities: to_arrays(&self.v),
@@ -721,8 +729,8 @@ impl Simulator {
             last_step: self.last_step,
             warm_start,
             contact_influence: memory.unwrap_or_default(),
-            factor: self.preconditioner.state(),
-        })
+            factor: None,
+        }
     }
 
     /// Puts this simulator (built from the same scene) in the state of
@@ -734,6 +742,27 @@ impl Simulator {
         if let Some(factor) = &snapshot.factor {
             self.preconditioner.restore(factor)?;
         }
+        self.take_state(snapshot);
+        Ok(())
+    }
+
+    /// Puts this simulator in the state of `snapshot`, with or without a
+    /// kept factor ([`Self::state`]): the editor simulating again from a
+    /// frame, its current fabric blended in already. Without the factor the
+    /// steps after are those of the run it left to within the solver's
+    /// tolerance.
+    pub fn restart_from(&mut self, snapshot: &Snapshot) -> Result<(), SnapshotError> {
+        let keeps_factor = matches!(self.preconditioner, Preconditioner::Cholesky(_));
+        snapshot.check(self.x.len(), self.colliders.len(), keeps_factor && snapshot.factor.is_some())?;
+        if let Some(factor) = &snapshot.factor {
+            self.preconditioner.restore(factor)?;
+        }
+        self.take_state(snapshot);
+        Ok(())
+    }
+
+    /// The state of `snapshot` but its factor (checked already).
+    fn take_state(&mut self, snapshot: &Snapshot) {
         self.time = snapshot.time_s;
         from_arrays(&snapshot.positions, &mut self.x);
         from_arrays(&snapshot.velocities, &mut self.v);
@@ -745,7 +774,6 @@ impl Simulator {
         if let Some(pipeline) = &mut self.collision {
             pipeline.restore_memory(&CollisionMemory::from_entries(&snapshot.contact_influence));
         }
-        Ok(())
     }
 
     /// Where pin `k` must be at time `t`, m.

@@ -228,6 +228,7 @@ impl Editor {
         self.timeline = Timeline::new(scene.fps, scene.frame_count);
         self.figure = FigurePath::new(&scene);
         self.scene = scene;
+        self.last_bake = None;
         if kind == Loading::Open {
             self.base_effort = (self.scene.steps_per_frame, self.scene.solver.tolerance);
             self.quality = Quality::Balanced;
