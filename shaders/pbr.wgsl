@@ -9,6 +9,9 @@
 
 const PI: f32 = 3.14159265359;
 const MAX_LIGHTS: u32 = 4u;
+// Radiance of an unlit surface's base colour before exposure: ACES maps it
+// back to about the colour itself.
+const UNLIT_RADIANCE: f32 = 1.0;
 const SHADOW_TAPS: i32 = 32;
 const BLOCKER_TAPS: i32 = 8;
 
@@ -33,7 +36,7 @@ struct Object {
     base: vec4<f32>,   // rgb base colour (linear), a metallic
     back: vec4<f32>,   // rgb back-face colour, a roughness
     sheen: vec4<f32>,  // rgb sheen colour, a sheen roughness
-    params: vec4<f32>, // grid spacing (m, 0 none), unused x3
+    params: vec4<f32>, // grid spacing (m, 0 none), unlit share (0..1), unused x2
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -281,6 +284,10 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     let ambient_base = diffuse_color * irradiance / PI + reflected * environment_brdf(f0, roughness, n_v);
     let ambient_sheen = sheen_color * sheen_albedo(n_v, sheen_roughness) * irradiance / PI;
     color += base_scale_v * ambient_base + ambient_sheen;
+    // The unlit share shows the base colour as a surface lit to mid-grey
+    // would, whatever the lights.
+    let unlit = object.params.y;
+    color = mix(color, base * UNLIT_RADIANCE / frame.params.x, unlit);
 
     return vec4<f32>(aces_filmic(color * frame.params.x), 1.0);
 }

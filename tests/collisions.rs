@@ -222,3 +222,43 @@ fn cloth_drawn_over_a_table_edge_is_pushed_off_it_in_the_solve() {
     let (with, without) = (strain * 1e2, strain_without * 1e2);
     assert!(2.0 * strain < strain_without, "the corners stretch {with:.2} % with them, {without:.2} % without");
 }
+
+/// A table top as an OBJ mesh: a 1 m square slab, 4 cm thick, top at y = 0.
+const SLAB_OBJ: &str = "v -0.5 -0.04 -0.5\nv 0.5 -0.04 -0.5\nv 0.5 -0.04 0.5\nv -0.5 -0.04 0.5\n\
+v -0.5 0 -0.5\nv 0.5 0 -0.5\nv 0.5 0 0.5\nv -0.5 0 0.5\n\
+f 1 2 3\nf 1 3 4\nf 5 7 6\nf 5 8 7\nf 1 5 6\nf 1 6 2\nf 2 6 7\nf 2 7 3\nf 3 7 8\nf 3 8 4\nf 4 8 5\nf 4 5 1\n";
+
+/// A cotton square settling on a table, as an analytic box and as a mesh:
+/// the contact forces the fit map's pressure comes from add up to the
+/// cloth's weight once it rests (the table holds it all up).
+#[test]
+fn the_contact_forces_on_a_resting_cloth_add_up_to_its_weight() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("slab.obj"), SLAB_OBJ).unwrap();
+    let tables = [
+        "shape = { box = { size_m = [1.0, 0.04, 1.0] } }\nposition_m = [0.0, 0.78, 0.0]",
+        "shape = { mesh = { obj = \"slab.obj\" } }\nposition_m = [0.0, 0.8, 0.0]",
+    ];
+    for table in tables {
+        let text = format!(
+            "[time]\nfps = 30.0\nduration_s = 2.0\n[solver]\nsteps_per_frame = 2\n\
+             [[garment]]\nname = \"cloth\"\npreset = \"cotton\"\nmesh = {{ grid = {{ size_m = 0.4, resolution = 16 }} }}\n\
+             translation_m = [0.0, 0.82, 0.0]\n[[collider]]\nname = \"table\"\n{table}\n"
+        );
+        let path = dir.path().join("table.toml");
+        std::fs::write(&path, text).unwrap();
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let mut baker = drape::bake::Baker::new(&scene).unwrap();
+        while baker.frame() < scene.frame_count - 10 {
+            baker.advance().unwrap();
+        }
+        baker.take_contact_forces(1);
+        while baker.frame() < scene.frame_count {
+            baker.advance().unwrap();
+        }
+        let held: f64 = baker.take_contact_forces(10).iter().map(|f| f64::from(*f)).sum();
+        let fabric = &scene.garments[0].fabric;
+        let weight = fabric.area_density_kg_per_m2 * 0.4 * 0.4 * 9.81;
+        assert!((held / weight - 1.0).abs() < 0.05, "{table}: the table holds {held:.4} N of {weight:.4} N");
+    }
+}

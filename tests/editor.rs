@@ -761,3 +761,147 @@ fn frames_simulated_with_other_settings_are_marked_stale() {
     assert!(kinds[..=5].iter().all(|k| *k == FrameKind::Stale), "frames 0-5 stay cotton");
     assert!(kinds[6..].iter().all(|k| *k == FrameKind::Simulated), "frames from 6 on are silk: {kinds:?}");
 }
+
+/// A cotton square hanging from two corners: stretched to its limit (1 %)
+/// at the pins, slack at the hem.
+const HANGING_SCENE: &str = r#"
+[time]
+fps = 30.0
+duration_s = 1.0
+[solver]
+steps_per_frame = 2
+[[garment]]
+name = "cloth"
+preset = "cotton"
+mesh = { grid = { size_m = 0.6, resolution = 24 } }
+translation_m = [0.0, 1.2, 0.0]
+rotation_deg = [90.0, 0.0, 0.0]
+[[garment.pin]]
+vertices = [0, 23]
+[[collider]]
+name = "ground"
+shape = "plane"
+"#;
+
+/// The colour of `image` around the point `p` (m) seen through the
+/// editor's camera, averaged over a 5 × 5 pixel square.
+fn colour_at(editor: &Editor, image: &image::RgbaImage, p: &nalgebra::Vector3<f64>) -> [f64; 3] {
+    let camera = editor.shown_camera();
+    let aspect = image.width() as f32 / image.height() as f32;
+    let ndc = (camera.projection(aspect, 10.0) * camera.view())
+        .project_point3(glam::Vec3::new(p.x as f32, p.y as f32, p.z as f32));
+    let (x, y) = ((ndc.x + 1.0) * 0.5 * image.width() as f32, (1.0 - ndc.y) * 0.5 * image.height() as f32);
+    let mut sum = [0.0; 3];
+    for dy in -2..=2 {
+        for dx in -2..=2 {
+            let px = image.get_pixel((x as i32 + dx) as u32, (y as i32 + dy) as u32);
+            (0..3).for_each(|c| sum[c] += f64::from(px[c]) / 25.0);
+        }
+    }
+    sum
+}
+
+/// The strain map colours the cloth where it is stretched to its limit in
+/// the limit's colour (red) and where it is slack in the ramp's start
+/// (blue), with the legend naming the limit.
+#[test]
+fn the_strain_map_shows_the_limits_colour_where_the_cloth_is_at_its_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hanging.toml");
+    std::fs::write(&path, HANGING_SCENE).unwrap();
+    let gpu = Gpu::headless().unwrap_or_else(|e| panic!("{e}"));
+    let mut ui_renderer =
+        egui_wgpu::Renderer::new(&gpu.device, wgpu::TextureFormat::Rgba8Unorm, egui_wgpu::RendererOptions::default());
+    let mut viewport = Viewport::new(&gpu, wgpu::TextureFormat::Rgba8Unorm).expect("lavapipe runs the renderer");
+    viewport.resolution_scale = 1.0;
+    let mut h = harness(Editor::new(Scene::load(&path).unwrap()));
+    h.run_steps(2);
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the bake", |e| e.run == RunState::Idle && e.timeline.last() == e.scene.frame_count);
+    h.get_by_role_and_label(Role::ComboBox, "Show").click();
+    h.run_steps(2);
+    h.get_by_label("Strain map").click();
+    h.run_steps(2);
+    h.key_press(egui::Key::Num1);
+    h.run_steps(2);
+    assert_eq!(h.state().fit_map, Some(drape::stage::fit_map::FitMap::Strain));
+    let (_, [_, _, full_scale]) = drape::stage::fit_map::FitMap::Strain.legend(&h.state().scene);
+    assert_eq!(full_scale, "1.0 % (the limit)", "the legend's red end is the limit");
+    viewport.render(h.state_mut(), [480, 480], &mut ui_renderer);
+    let image = viewport.image().unwrap().unwrap();
+    let shot = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/fit_maps/strain.png");
+    std::fs::create_dir_all(shot.parent().unwrap()).unwrap();
+    image.save(&shot).unwrap();
+
+    let editor = h.state();
+    let positions = editor.timeline.newest().unwrap().positions.clone();
+    let mesh = &editor.scene.garments[0].mesh;
+    let strain = drape::stage::fit_map::vertex_strain(mesh, &positions);
+    let limit = editor.scene.garments[0].fabric.strain_limit.unwrap();
+    // Inside the square (24 × 24 vertices), so the pixels around it are cloth.
+    let interior = |i: &usize| (1..23).contains(&(i % 24)) && (1..23).contains(&(i / 24));
+    let (stretched, most) =
+        (0..strain.len()).filter(interior).fold((0, 0.0), |b, i| if strain[i] > b.1 { (i, strain[i]) } else { b });
+    assert!(most >= 0.9 * limit, "the cloth reaches its limit at the pins: {:.2} %", most * 100.0);
+    let [r, g, b] = colour_at(editor, &image, &positions[stretched]);
+    assert!(r > 1.5 * g && r > 1.5 * b, "at {:.2} % strain the map is red: {r:.0} {g:.0} {b:.0}", most * 100.0);
+    let (slack, least) =
+        (0..strain.len()).filter(interior).fold((0, f64::MAX), |b, i| if strain[i] < b.1 { (i, strain[i]) } else { b });
+    assert!(least < 0.1 * limit);
+    let [r, _, b] = colour_at(editor, &image, &positions[slack]);
+    assert!(b > 1.5 * r, "a slack vertex is blue: {r:.0} {b:.0} ({} in {})", least, shot.display());
+}
+
+/// PNG export draws the frame shown through the view composed on screen,
+/// at the size chosen, with the fit map and its legend; the folder is kept
+/// in the scene file; a cancelled export is reported as a cancel.
+#[test]
+fn png_export_draws_this_view_with_the_fit_map_legend_and_a_cancel_is_a_cancel() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the bake", |e| e.run == RunState::Idle && e.timeline.last() == e.scene.frame_count);
+    let folder = dir.path().join("pictures");
+    h.state_mut().paths.export = folder.display().to_string();
+    h.key_press(egui::Key::M);
+    h.run_steps(2);
+    assert!(h.state().fit_map.is_some(), "M shows the strain map");
+    h.get_by_label("Fabric").click(); // folded: the Export panel's size list fits under it
+    h.run_steps(2);
+    h.get_by_label("This frame").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::ComboBox, "Size").click();
+    h.run_steps(2);
+    h.get_by_label("1280 × 720").click();
+    h.run_steps(2);
+    h.get_by_label("Export PNG").click();
+    h.run_steps(2);
+    wait_for_export(&mut h);
+    let last = h.state().timeline.last();
+    let image = image::open(folder.join(format!("frame_{last:04}.png"))).unwrap().to_rgba8();
+    assert_eq!(image.dimensions(), (1280, 720));
+    let kept = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/fit_maps/export_strain.png");
+    std::fs::create_dir_all(kept.parent().unwrap()).unwrap();
+    image.save(&kept).unwrap();
+    let legend_start = image.get_pixel(24, 720 - 16 - 8 - 13 - 6).0;
+    assert_eq!(legend_start[..3], drape::stage::fit_map::ramp(0.0), "the legend's ramp is drawn in");
+    let cloth_colours = image.pixels().filter(|p| i32::from(p[2]) > i32::from(p[0]) + 60).count();
+    assert!(cloth_colours > 2000, "the cloth is coloured by the map ({cloth_colours} blue pixels)");
+    let remembered = h.state().scene.file.export.folder.clone();
+    assert_eq!(remembered.as_deref(), Some(Path::new("pictures")), "kept relative to the scene");
+    assert!(h.state().dirty(), "and saved with it");
+
+    h.get_by_label("Every frame").click();
+    h.run_steps(1);
+    h.get_by_label("Export PNG").click();
+    h.run_steps(1);
+    h.key_press(egui::Key::Escape);
+    h.run_steps(1);
+    wait_for_export(&mut h);
+    let messages = &h.state().messages;
+    assert!(messages.iter().any(|m| !m.error && m.text.starts_with("export cancelled after")), "{messages:?}");
+    assert!(!messages.iter().any(|m| m.error));
+}

@@ -102,7 +102,7 @@ pub fn dropped(editor: &mut Editor, path: PathBuf) {
 /// `path` relative to `folder` (with `..` where it lies outside), so that a
 /// saved scene still finds it when the project folder moves; absolute when
 /// the two share no root (another drive).
-fn relative_to(path: &Path, folder: &Path) -> PathBuf {
+pub fn relative_to(path: &Path, folder: &Path) -> PathBuf {
     let absolute = |p: &Path| normalised(&std::path::absolute(p).unwrap_or_else(|_| p.to_owned()));
     let (path, folder) = (absolute(path), absolute(folder));
     let shared = path.components().zip(folder.components()).take_while(|(a, b)| a == b).count();

@@ -31,6 +31,7 @@ use crate::scene::file::{MeshSpec, SceneFile};
 use crate::scene::preset::Preset;
 use crate::sim::fabric::Fabric;
 use crate::stage::figure::FigurePath;
+use crate::stage::fit_map::FitMap;
 
 /// The simulation's effort, one choice for designers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -124,6 +125,23 @@ pub struct PathFields {
     pub export: String,
 }
 
+/// The Export panel's choices for PNG frames.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageChoices {
+    /// Width and height, pixels; `None`: the viewport's.
+    pub size: Option<(u32, u32)>,
+    /// Through the view composed on screen (else the scene's camera).
+    pub through_view: bool,
+    /// Every simulated frame (else the one shown).
+    pub all_frames: bool,
+}
+
+impl Default for ImageChoices {
+    fn default() -> Self {
+        ImageChoices { size: Some((1920, 1080)), through_view: true, all_frames: true }
+    }
+}
+
 /// The editor.
 pub struct Editor {
     /// The scene as edited (its garments carry the live fabrics).
@@ -190,6 +208,12 @@ pub struct Editor {
     pub show_keyboard: bool,
     /// The frames of the last bake that completed, kept while another runs.
     last_bake: Option<Vec<Frame>>,
+    /// The fit map colouring the cloth, if any.
+    pub fit_map: Option<FitMap>,
+    /// What PNG frames are exported as.
+    pub images: ImageChoices,
+    /// The viewport's size, physical pixels (set by the panels).
+    pub viewport_pixels: [u32; 2],
 }
 
 /// An action that would lose unsaved changes, waiting for the user to say
@@ -211,7 +235,7 @@ impl Editor {
     pub fn new(scene: Scene) -> Editor {
         let timeline = Timeline::new(scene.fps, scene.frame_count);
         let rigs = LightRig::built_in();
-        let mut paths = PathFields { export: format!("out/{}", scene.name), ..Default::default() };
+        let mut paths = PathFields::default();
         if let Some(source) = &scene.source {
             paths.scene = source.display().to_string();
         }
@@ -254,6 +278,9 @@ impl Editor {
             pending: None,
             show_keyboard: false,
             last_bake: None,
+            fit_map: None,
+            images: ImageChoices::default(),
+            viewport_pixels: [1280, 720],
         };
         editor.fill_paths();
         editor
@@ -263,6 +290,10 @@ impl Editor {
         if let Some(source) = &self.scene.source {
             self.paths.scene = source.display().to_string();
         }
+        self.paths.export = match &self.scene.file.export.folder {
+            Some(folder) => self.base_dir().join(folder).display().to_string(),
+            None => format!("out/{}", self.scene.name),
+        };
         self.garment = self.garment.min(self.scene.garments.len().saturating_sub(1));
         self.paths.garment = match self.scene.file.garments.get(self.garment).map(|g| &g.mesh) {
             Some(MeshSpec::Obj(obj)) => obj.display().to_string(),

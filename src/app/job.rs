@@ -4,6 +4,7 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, channel};
+use std::time::Instant;
 
 /// News from a job.
 enum News<T> {
@@ -19,6 +20,8 @@ pub struct Job<T> {
     pub done: usize,
     /// Units of work in all.
     pub total: usize,
+    /// When it started.
+    started: Instant,
 }
 
 impl<T: Send + 'static> Job<T> {
@@ -43,12 +46,23 @@ impl<T: Send + 'static> Job<T> {
             };
             let _ = sender.send(News::Finished(result));
         });
-        Job { news, cancel, done: 0, total }
+        Job { news, cancel, done: 0, total, started: Instant::now() }
     }
 
     /// Asks the job to stop after the unit in progress.
     pub fn cancel(&self) {
         self.cancel.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether the user asked the job to stop.
+    pub fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+
+    /// Seconds left at the pace so far, once a unit is done.
+    pub fn time_left_s(&self) -> Option<f64> {
+        let done = self.done.min(self.total);
+        (done > 0).then(|| self.started.elapsed().as_secs_f64() / done as f64 * (self.total - done) as f64)
     }
 
     /// Takes in the news: the result once the job has finished.

@@ -6,6 +6,7 @@ use egui::Ui;
 use super::editor::{Action, Editor, RunState};
 use super::orbit::ViewSide;
 use super::shortcuts::{keyboard_table, keys_of};
+use crate::stage::fit_map::FitMap;
 
 /// Draws the menu bar.
 pub fn menu_bar(ui: &mut Ui, editor: &mut Editor) {
@@ -91,6 +92,13 @@ fn view_menu(ui: &mut Ui, editor: &mut Editor) {
     if ui.button("Scene camera").on_hover_text("The scene's own view (double click in the view)").clicked() {
         editor.camera.frame_all();
     }
+    ui.separator();
+    let mut map = editor.fit_map;
+    ui.radio_value(&mut map, None, "Fabric look");
+    for m in FitMap::ALL {
+        ui.radio_value(&mut map, Some(m), m.label());
+    }
+    editor.fit_map = map;
     ui.separator();
     let mut follow = editor.camera.follow;
     if ui.checkbox(&mut follow, "Follow the figure").on_hover_text("Keep the figure framed while it walks").changed() {

@@ -13,6 +13,7 @@ use super::fabric_panel;
 use super::stats::overlay_lines;
 use crate::export::Format;
 use crate::scene::preset::Preset;
+use crate::stage::fit_map::{FitMap, ramp};
 
 /// Draws the whole editor into `ui`, with the 3D view's image
 /// ([`super::blit::viewport_image`]) when `viewport_drawn` (a grey area
@@ -67,6 +68,7 @@ fn toolbar(ui: &mut Ui, editor: &mut Editor) {
         ui.label(format!("{} steps/frame", editor.scene.steps_per_frame));
         ui.separator();
         light_menu(ui, editor);
+        map_menu(ui, editor);
         ui.separator();
         if editor.is_loading() {
             ui.spinner();
@@ -85,6 +87,50 @@ fn light_menu(ui: &mut Ui, editor: &mut Editor) {
         }
     });
     editor.rig = rig;
+}
+
+/// What colours the cloth: its fabric, or a fit map.
+fn map_menu(ui: &mut Ui, editor: &mut Editor) {
+    let mut map = editor.fit_map;
+    let name = |m: Option<FitMap>| m.map_or("Fabric look", FitMap::label);
+    egui::ComboBox::from_label("Show")
+        .selected_text(name(map))
+        .show_ui(ui, |ui| {
+            ui.selectable_value(&mut map, None, name(None));
+            for m in FitMap::ALL {
+                ui.selectable_value(&mut map, Some(m), name(Some(m)));
+            }
+        })
+        .response
+        .on_hover_text(
+            "Colour the cloth by how far it stretches (of its limit) or how hard it presses on the body (M)",
+        );
+    editor.fit_map = map;
+}
+
+/// The fit map's colour scale, in the viewport's lower left corner.
+fn map_legend(painter: &egui::Painter, rect: Rect, editor: &Editor) {
+    let Some(map) = editor.fit_map else { return };
+    let (title, [low, middle, high]) = map.legend(&editor.scene);
+    let bar = Rect::from_min_size(rect.left_bottom() + Vec2::new(16.0, -40.0), Vec2::new(220.0, 12.0));
+    painter.rect_filled(
+        bar.expand2(Vec2::new(8.0, 26.0)).translate(Vec2::new(0.0, -8.0)),
+        4.0,
+        Color32::from_black_alpha(150),
+    );
+    let steps = 64;
+    for k in 0..steps {
+        let [r, g, b] = ramp(k as f32 / (steps - 1) as f32);
+        let x = bar.left() + bar.width() * k as f32 / steps as f32;
+        let cell =
+            Rect::from_min_size(egui::pos2(x, bar.top()), Vec2::new(bar.width() / steps as f32 + 0.5, bar.height()));
+        painter.rect_filled(cell, 0.0, Color32::from_rgb(r, g, b));
+    }
+    let (font, white) = (egui::FontId::proportional(12.0), Color32::from_gray(235));
+    painter.text(bar.left_top() - Vec2::new(0.0, 3.0), Align2::LEFT_BOTTOM, title, font.clone(), white);
+    painter.text(bar.left_bottom() + Vec2::new(0.0, 2.0), Align2::LEFT_TOP, low, font.clone(), white);
+    painter.text(bar.center_bottom() + Vec2::new(0.0, 2.0), Align2::CENTER_TOP, middle, font.clone(), white);
+    painter.text(bar.right_bottom() + Vec2::new(0.0, 2.0), Align2::RIGHT_TOP, high, font, white);
 }
 
 fn controls(ui: &mut Ui, editor: &mut Editor) {
@@ -460,30 +506,29 @@ fn camera(ui: &mut Ui, editor: &mut Editor) {
     ui.label("Left drag: orbit · right or middle drag: pan · wheel: zoom");
 }
 
+/// Image sizes offered for PNG frames: name, pixels (`None`: the viewport's).
+const IMAGE_SIZES: [(&str, Option<(u32, u32)>); 5] = [
+    ("1280 × 720", Some((1280, 720))),
+    ("1920 × 1080", Some((1920, 1080))),
+    ("3840 × 2160", Some((3840, 2160))),
+    ("1080 × 1350 (portrait)", Some((1080, 1350))),
+    ("as the viewport", None),
+];
+
 fn export(ui: &mut Ui, editor: &mut Editor) {
     let mut browse = false;
     ui.horizontal(|ui| {
         let name = ui.label("Folder");
         ui.add(egui::TextEdit::singleline(&mut editor.paths.export).desired_width(180.0)).labelled_by(name.id);
-        browse = ui.button("…").on_hover_text("Choose the export folder").clicked();
+        browse = ui.button("…").on_hover_text("Choose the export folder (kept in the scene file)").clicked();
     });
     if browse {
         let current = editor.paths.export.clone();
         editor.browse(Purpose::ExportFolder, &current);
     }
+    let free = editor.export.is_none();
+    ui.label("For other tools, with the body:");
     ui.horizontal(|ui| {
-        let free = editor.export.is_none();
-        if ui.add_enabled(free, egui::Button::new("OBJ + PC2")).on_hover_text("OBJ sequence and point caches").clicked()
-        {
-            editor.export(ExportKind::Geometry);
-        }
-        if ui.add_enabled(free, egui::Button::new("PNG frames")).on_hover_text("1280×720, the current light").clicked()
-        {
-            editor.export(ExportKind::Images { width: 1280, height: 720 });
-        }
-    });
-    ui.horizontal(|ui| {
-        let free = editor.export.is_none();
         let formats = [
             (Format::Usd, "USD", "One .usda with the body: Maya, Houdini, Unreal, Omniverse, Blender"),
             (Format::Gltf, "glTF", "One .glb with the body, a morph target per frame: browsers, three.js, Blender"),
@@ -494,19 +539,35 @@ fn export(ui: &mut Ui, editor: &mut Editor) {
                 editor.export(ExportKind::Format(format));
             }
         }
+        if ui.add_enabled(free, egui::Button::new("OBJ + PC2")).on_hover_text("OBJ sequence and point caches").clicked()
+        {
+            editor.export(ExportKind::Geometry);
+        }
     });
-    let mut cancel = false;
-    if let Some(job) = &editor.export {
-        let (done, total) = (job.done, job.total);
-        ui.horizontal(|ui| {
-            let fraction = done as f32 / total.max(1) as f32;
-            ui.add(egui::ProgressBar::new(fraction).text(format!("export {done}/{total}")).desired_width(200.0));
-            cancel = ui.button("Cancel").clicked();
-        });
+    ui.label("Pictures, as the viewport shows them (with the fit map and its legend):");
+    image_choices(ui, editor);
+    let tip = "PNG frames frame_NNNN.png in the export folder";
+    if ui.add_enabled(free, egui::Button::new("Export PNG")).on_hover_text(tip).clicked() {
+        editor.export_images();
     }
-    if cancel {
-        editor.cancel_export();
-    }
+}
+
+fn image_choices(ui: &mut Ui, editor: &mut Editor) {
+    let choices = &mut editor.images;
+    ui.horizontal(|ui| {
+        ui.radio_value(&mut choices.through_view, true, "This view").on_hover_text("The camera as you placed it");
+        ui.radio_value(&mut choices.through_view, false, "Scene camera").on_hover_text("The scene file's camera");
+    });
+    ui.horizontal(|ui| {
+        ui.radio_value(&mut choices.all_frames, true, "Every frame");
+        ui.radio_value(&mut choices.all_frames, false, "This frame");
+    });
+    let name = IMAGE_SIZES.iter().find(|(_, s)| *s == choices.size).map_or("", |(n, _)| n);
+    egui::ComboBox::from_label("Size").selected_text(name).show_ui(ui, |ui| {
+        for (label, size) in IMAGE_SIZES {
+            ui.selectable_value(&mut choices.size, size, label);
+        }
+    });
 }
 
 /// Playback speeds offered, times real time.
@@ -573,6 +634,17 @@ fn playback_buttons(ui: &mut Ui, editor: &mut Editor) {
 
 /// The bake's and the export's progress, time left and Cancel.
 fn job_progress(ui: &mut Ui, editor: &mut Editor) {
+    let mut cancel_export = false;
+    if let Some(job) = &editor.export {
+        ui.separator();
+        let left = job.time_left_s().map_or(String::new(), |s| format!(", {s:.0} s left"));
+        let text = format!("export {}/{}{left}", job.done, job.total);
+        ui.add(egui::ProgressBar::new(job.done as f32 / job.total.max(1) as f32).text(text).desired_width(220.0));
+        cancel_export = ui.button("Cancel export").on_hover_text("Stop after the file in progress (Esc)").clicked();
+    }
+    if cancel_export {
+        editor.cancel_export();
+    }
     if let RunState::Baking { done, total, .. } = editor.run {
         ui.separator();
         let left = editor.bake_time_left_s().map_or(String::new(), |s| format!(", {s:.0} s left"));
@@ -593,6 +665,8 @@ fn viewport_ui(ui: &mut Ui, editor: &mut Editor, drawn: bool) -> [u32; 2] {
         painter.rect_filled(rect, 0.0, Color32::from_gray(40));
     }
     editor.viewport_aspect = rect.aspect_ratio();
+    let pixels = rect.size() * ui.ctx().pixels_per_point();
+    editor.viewport_pixels = [pixels.x.round().max(1.0) as u32, pixels.y.round().max(1.0) as u32];
     let (shown, t) = (editor.shown_camera(), editor.shown_time_s());
     let delta = response.drag_delta();
     if response.dragged_by(PointerButton::Primary) {
@@ -623,8 +697,8 @@ fn viewport_ui(ui: &mut Ui, editor: &mut Editor, drawn: bool) -> [u32; 2] {
         painter.rect_filled(Rect::from_min_size(at, galley.size()).expand(4.0), 3.0, Color32::from_black_alpha(150));
         painter.galley(at, galley, Color32::WHITE);
     }
-    let pixels = rect.size() * ui.ctx().pixels_per_point();
-    [pixels.x.round().max(1.0) as u32, pixels.y.round().max(1.0) as u32]
+    map_legend(&painter, rect, editor);
+    editor.viewport_pixels
 }
 
 fn messages(ctx: &egui::Context, editor: &mut Editor) {

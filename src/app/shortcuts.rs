@@ -46,6 +46,7 @@ pub const SHORTCUTS: &[Shortcut] = &[
     key(NONE, Key::ArrowLeft, Action::PreviousFrame, "Previous frame"),
     key(NONE, Key::ArrowRight, Action::NextFrame, "Next frame"),
     key(NONE, Key::F, Action::Frame, "Frame the garment and body"),
+    key(NONE, Key::M, Action::NextFitMap, "Fabric look → strain map → contact map"),
     key(CTRL, Key::Num1, Action::View(ViewSide::Back), "Back view"),
     key(NONE, Key::Num1, Action::View(ViewSide::Front), "Front view"),
     key(CTRL, Key::Num3, Action::View(ViewSide::Left), "Left side view"),

@@ -186,6 +186,7 @@ mod tests {
             state: Arc::new(Snapshot::default()),
             settings: Arc::new(Settings::default()),
             baked: false,
+            contact_force_n: Arc::new(Vec::new()),
         }
     }
 

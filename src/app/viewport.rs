@@ -12,6 +12,7 @@ use super::blit::BlitPipeline;
 use super::editor::Editor;
 use crate::render::{Gpu, OrbitCamera, RenderError, Renderer, TextureTarget};
 use crate::stage::Stage;
+use crate::stage::fit_map::{FitMap, map_values};
 
 /// Everything the image depends on, to skip renders that would be the same.
 #[derive(Clone, Debug, PartialEq)]
@@ -23,13 +24,16 @@ struct Shown {
     rig: usize,
     size: [u32; 2],
     body_only: bool,
+    map: Option<FitMap>,
 }
 
 /// The viewport's GPU side.
 pub struct Viewport {
     gpu: Gpu,
     renderer: Renderer,
-    stage: Option<(u64, Stage)>,
+    /// The stage drawn, for the editor's scene generation and whether a fit
+    /// map colours it.
+    stage: Option<((u64, bool), Stage)>,
     target: Option<TextureTarget>,
     blit: BlitPipeline,
     /// What the last image shows, and whether it was anti-aliased.
@@ -79,11 +83,15 @@ impl Viewport {
     /// when anything shown changed, or anti-aliased when it did not and the
     /// editor is still. Sets the editor's automatic framing.
     pub fn render(&mut self, editor: &mut Editor, size: [u32; 2], ui_renderer: &mut egui_wgpu::Renderer) {
-        if self.stage.as_ref().is_none_or(|(g, _)| *g != editor.generation) {
+        let key = (editor.generation, editor.fit_map.is_some());
+        if self.stage.as_ref().is_none_or(|(k, _)| *k != key) {
             match Stage::new(&editor.scene) {
-                Ok(stage) => {
+                Ok(mut stage) => {
+                    if key.1 {
+                        stage.use_fit_map();
+                    }
                     self.renderer.set_meshes(stage.meshes());
-                    self.stage = Some((editor.generation, stage));
+                    self.stage = Some((key, stage));
                 }
                 Err(e) => {
                     editor.tell(format!("cannot draw the scene: {e}"), true);
@@ -114,6 +122,7 @@ impl Viewport {
             rig: editor.rig,
             size: scaled,
             body_only: editor.timeline.body_only,
+            map: editor.fit_map,
         };
         let (same, refined) = match &self.shown {
             Some((last, antialiased)) => (*last == shown, *antialiased),
@@ -122,6 +131,9 @@ impl Viewport {
         let antialiased = self.antialias_moving || (same && !editor.is_animating());
         if same && (refined || !antialiased) {
             return;
+        }
+        if let Some(map) = editor.fit_map {
+            stage.set_fit_map_values(map_values(map, &editor.scene, &frame.positions, &frame.contact_force_n));
         }
         stage.pose(&mut self.renderer, &frame.positions, time_s);
         stage.show_garments(&mut self.renderer, !shown.body_only);

@@ -102,6 +102,9 @@ pub struct Frame {
     pub settings: Arc<Settings>,
     /// Simulated by a bake (from frame 0, at one quality) rather than live.
     pub baked: bool,
+    /// The mean force each particle took from the colliders during the
+    /// frame, N (zero at frame 0).
+    pub contact_force_n: Arc<Vec<f32>>,
 }
 
 /// What the worker tells the UI.
@@ -217,7 +220,8 @@ impl WorkerLoop {
     }
 
     /// The frame the baker is at, with the settings it was simulated with.
-    fn frame(&self, baker: &Baker, record: FrameRecord) -> Frame {
+    fn frame(&self, baker: &mut Baker, record: FrameRecord) -> Frame {
+        let contact_force_n = Arc::new(baker.take_contact_forces(1));
         let sim = baker.simulator();
         Frame {
             positions: Arc::new(sim.positions().to_vec()),
@@ -225,6 +229,7 @@ impl WorkerLoop {
             state: Arc::new(sim.state()),
             settings: self.settings.clone(),
             baked: self.run == Run::Baking,
+            contact_force_n,
         }
     }
 
@@ -321,10 +326,10 @@ impl WorkerLoop {
     fn restart(&mut self, next: Run) {
         self.run = next;
         match Baker::new(&self.scene) {
-            Ok(baker) => {
+            Ok(mut baker) => {
                 self.settings = Arc::new(Settings::of(&self.scene));
                 let record = FrameRecord { intersections: baker.initial_check(), ..Default::default() };
-                let frame = self.frame(&baker, record);
+                let frame = self.frame(&mut baker, record);
                 self.baker = Some(baker);
                 self.emit(Event::Restarted(frame));
             }
@@ -353,7 +358,7 @@ impl WorkerLoop {
         }
         match baker.advance() {
             Ok(record) => {
-                let frame = self.frame(&baker, record);
+                let frame = self.frame(&mut baker, record);
                 self.baker = Some(baker);
                 let done = frame.record.frame;
                 self.emit(Event::Frame(frame));

@@ -201,6 +201,13 @@ impl Baker {
         self.sim.set_solver_tolerance(tolerance);
     }
 
+    /// The mean force each particle took from the colliders over the frames
+    /// since the last call, N (per frame: the impulses over its duration).
+    pub fn take_contact_forces(&mut self, frames: usize) -> Vec<f32> {
+        let duration = self.frame_s * frames.max(1) as f64;
+        self.sim.take_contact_impulses().iter().map(|j| (j / duration) as f32).collect()
+    }
+
     /// The simulation in its current state.
     pub fn simulator(&self) -> &Simulator {
         &self.sim

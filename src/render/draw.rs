@@ -36,6 +36,9 @@ pub struct Material {
     pub grid_spacing_m: f32,
     /// Base-colour texture (sRGB), multiplied with the base colour.
     pub texture: Option<Arc<image::RgbaImage>>,
+    /// Share of the image that shows the base colour unlit, 0..1: a fit
+    /// map reads the same in any light (0 for every real material).
+    pub unlit: f32,
 }
 
 impl Material {
@@ -50,6 +53,7 @@ impl Material {
             sheen_roughness: 0.5,
             grid_spacing_m: 0.0,
             texture: None,
+            unlit: 0.0,
         }
     }
 }

@@ -104,7 +104,7 @@ impl ObjectUniforms {
             base: [r, g, b, m.metallic],
             back: [br, bg, bb, m.roughness],
             sheen: [sr, sg, sb, m.sheen_roughness.max(MIN_SHEEN_ROUGHNESS as f32)],
-            params: [m.grid_spacing_m, 0.0, 0.0, 0.0],
+            params: [m.grid_spacing_m, m.unlit.clamp(0.0, 1.0), 0.0, 0.0],
         }
     }
 }

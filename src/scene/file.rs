@@ -65,6 +65,9 @@ pub struct SceneFile {
     /// How renders and the editor's viewport look at the scene.
     #[serde(default, skip_serializing_if = "CameraSpec::is_automatic")]
     pub camera: CameraSpec,
+    /// Where the editor exports this scene's frames.
+    #[serde(default, skip_serializing_if = "ExportSpec::is_default")]
+    pub export: ExportSpec,
 }
 
 /// An animated body: a deforming collider that garments can attach to.
@@ -117,6 +120,22 @@ pub struct BodySpec {
     /// Friction coefficient overriding the fabric's, unitless.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
+}
+
+/// Where the editor exports a scene's frames (`[export]`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExportSpec {
+    /// The folder last exported to, relative to the scene file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub folder: Option<PathBuf>,
+}
+
+impl ExportSpec {
+    /// True when nothing is set (not written to the file).
+    pub fn is_default(&self) -> bool {
+        *self == ExportSpec::default()
+    }
 }
 
 impl BodySpec {

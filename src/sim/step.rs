@@ -418,6 +418,7 @@ pub struct Checkpoint {
     resting_on: Vec<u32>,
     released: Vec<bool>,
     normal_force: Vec<f64>,
+    contact_impulse: Vec<f64>,
     last_step: LocalError,
     collision: Option<CollisionMemory>,
     /// A fabric change in progress: it recomputes the coefficients of each
@@ -474,6 +475,9 @@ pub struct Simulator {
     released: Vec<bool>,
     /// Normal force of each particle's contact in the last solve, N.
     normal_force: Vec<f64>,
+    /// Normal impulse each particle took from the colliders since
+    /// [`Self::take_contact_impulses`], N·s.
+    contact_impulse: Vec<f64>,
     /// The local error estimate of the last step.
     last_step: LocalError,
     colliders: Vec<Collider>,
@@ -558,6 +562,7 @@ impl Simulator {
             resting_on: vec![NO_COLLIDER; n],
             released: vec![false; n],
             normal_force: vec![0.0; n],
+            contact_impulse: vec![0.0; n],
             last_step: LocalError::default(),
             colliders,
             attachment_meshes,
@@ -578,6 +583,14 @@ impl Simulator {
     /// Current velocities, m/s.
     pub fn velocities(&self) -> &[Vector3<f64>] {
         &self.v
+    }
+
+    /// The normal impulse each particle took from the colliders (resting
+    /// on them, pushed off their meshes) since the last call, N·s; the
+    /// count starts again from zero.
+    pub fn take_contact_impulses(&mut self) -> Vec<f64> {
+        let zeros = vec![0.0; self.contact_impulse.len()];
+        std::mem::replace(&mut self.contact_impulse, zeros)
     }
 
     /// Simulated time, s.
@@ -675,6 +688,7 @@ impl Simulator {
         into.resting_on.clone_from(&self.resting_on);
         into.released.clone_from(&self.released);
         into.normal_force.clone_from(&self.normal_force);
+        into.contact_impulse.clone_from(&self.contact_impulse);
         into.last_step = self.last_step;
         if let Some(pipeline) = &self.collision {
             pipeline.save_memory(into.collision.get_or_insert_with(CollisionMemory::default));
@@ -690,6 +704,7 @@ impl Simulator {
         self.resting_on.clone_from(&checkpoint.resting_on);
         self.released.clone_from(&checkpoint.released);
         self.normal_force.clone_from(&checkpoint.normal_force);
+        self.contact_impulse.clone_from(&checkpoint.contact_impulse);
         self.last_step = checkpoint.last_step;
         if let (Some(pipeline), Some(memory)) = (&mut self.collision, &checkpoint.collision) {
             pipeline.restore_memory(memory);
@@ -902,6 +917,9 @@ impl Simulator {
                 projected || collided
             };
             report.collision = pipeline.resolve(cloth, window, &mut after_pass);
+            for (total, taken) in self.contact_impulse.iter_mut().zip(pipeline.obstacle_impulses()) {
+                *total += taken;
+            }
             let c = &report.collision;
             report.timings.refit = c.refit;
             report.timings.broad = c.broad;
@@ -923,6 +941,9 @@ impl Simulator {
         self.last_step = report.local_error;
         std::mem::swap(&mut self.x, &mut self.ws.next_x);
         std::mem::swap(&mut self.v, &mut self.ws.next_v);
+        for (total, force) in self.contact_impulse.iter_mut().zip(&self.normal_force) {
+            *total += force * h;
+        }
         self.time = window.t1;
         self.measure_strain(&mut report);
         report.timings.finish = lap(&mut clock);

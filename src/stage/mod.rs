@@ -9,6 +9,8 @@
 
 pub mod baked;
 pub mod figure;
+pub mod fit_map;
+pub mod legend;
 pub mod offscreen;
 pub mod tessellate;
 
@@ -86,6 +88,8 @@ pub struct Stage {
     /// Where the figure goes (the camera follows it).
     path: FigurePath,
     camera: CameraSpec,
+    /// Each garment particle's fit-map value while a map colours the cloth.
+    map_values: Option<Vec<f32>>,
 }
 
 fn to_mat4(isometry: &Isometry3<f64>) -> Mat4 {
@@ -108,6 +112,7 @@ impl Stage {
             first_bounds: Bounds { min: Vec3::ZERO, max: Vec3::ZERO },
             path: FigurePath::new(scene),
             camera: scene.file.camera.clone(),
+            map_values: None,
         };
         let mut first_particle = 0;
         for garment in &scene.garments {
@@ -232,6 +237,7 @@ impl Stage {
                 sheen_roughness: appearance.sheen_roughness,
                 grid_spacing_m: 0.0,
                 texture,
+                unlit: 0.0,
             };
             let name = format!("{}.{}", garment.name, part.name);
             let (draw, garment_vertex) = piece_mesh(&name, mesh, part, material);
@@ -267,6 +273,31 @@ impl Stage {
         }
     }
 
+    /// Colours the garments by a fit map from now on (call before
+    /// [`Self::meshes`] goes to the renderer): their materials become the
+    /// map's ramp, their texture coordinates each vertex's value.
+    pub fn use_fit_map(&mut self) {
+        let material = Material {
+            texture: Some(Arc::new(fit_map::ramp_image())),
+            unlit: fit_map::UNLIT_SHARE,
+            ..Material::matte([1.0; 3], 0.7)
+        };
+        for look in self.garments.iter().filter(|l| matches!(l.source, VertexSource::Particles(_))) {
+            for piece in &look.pieces {
+                self.meshes[piece.mesh].material = material.clone();
+            }
+        }
+        self.map_values = Some(Vec::new());
+    }
+
+    /// The fit-map value of every garment particle (scene order) for the
+    /// next [`Self::pose`] (ignored without [`Self::use_fit_map`]).
+    pub fn set_fit_map_values(&mut self, values: Vec<f32>) {
+        if self.map_values.is_some() {
+            self.map_values = Some(values);
+        }
+    }
+
     /// Shows or hides the garments in `renderer` (the body's motion alone).
     pub fn show_garments(&self, renderer: &mut Renderer, visible: bool) {
         for look in self.garments.iter().filter(|l| matches!(l.source, VertexSource::Particles(_))) {
@@ -291,11 +322,18 @@ impl Stage {
                 }
             };
             let normals = look.around.normals(own, &look.triangles);
+            let values = match (&look.source, &self.map_values) {
+                (VertexSource::Particles(first), Some(values)) => values.get(*first..),
+                _ => None,
+            };
             for piece in &look.pieces {
                 let vertices = &mut self.meshes[piece.mesh].vertices;
                 for (v, &g) in vertices.iter_mut().zip(&piece.garment_vertex) {
                     v.position = to_vec3(&own[g as usize]).into();
                     v.normal = to_vec3(&normals[g as usize]).into();
+                    if let Some(values) = values {
+                        v.uv = [fit_map::ramp_u(values.get(g as usize).copied().unwrap_or(0.0)), 0.5];
+                    }
                 }
             }
         }

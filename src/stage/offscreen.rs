@@ -7,7 +7,7 @@ use nalgebra::Vector3;
 
 use super::Stage;
 use crate::io::atomic::{WriteError, write_file};
-use crate::render::{Gpu, LightRig, OffscreenTarget, RenderError, Renderer};
+use crate::render::{Gpu, LightRig, OffscreenTarget, OrbitCamera, RenderError, Renderer};
 use crate::scene::Scene;
 
 /// A scene's stage with a renderer and an image-sized target.
@@ -36,6 +36,29 @@ impl OffscreenStage {
         self.stage.pose(&mut self.renderer, positions, t_s);
         let view = self.stage.view(self.target.aspect(), &self.rig, t_s);
         self.target.render(&self.gpu, &self.renderer, &view)
+    }
+
+    /// The image of the garments at `positions` at time `t_s` through `camera`.
+    pub fn render_through(
+        &mut self,
+        positions: &[Vector3<f64>],
+        t_s: f64,
+        camera: OrbitCamera,
+    ) -> Result<image::RgbaImage, RenderError> {
+        self.stage.pose(&mut self.renderer, positions, t_s);
+        let view = self.stage.view_through(camera, self.target.aspect(), &self.rig, t_s);
+        self.target.render(&self.gpu, &self.renderer, &view)
+    }
+
+    /// Colours the garments by a fit map from now on ([`Stage::use_fit_map`]).
+    pub fn use_fit_map(&mut self) {
+        self.stage.use_fit_map();
+        self.renderer.set_meshes(self.stage.meshes());
+    }
+
+    /// The fit-map values of the next image ([`Stage::set_fit_map_values`]).
+    pub fn set_fit_map_values(&mut self, values: Vec<f32>) {
+        self.stage.set_fit_map_values(values);
     }
 
     /// The stage, e.g. to read its camera.

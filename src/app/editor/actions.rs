@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use super::{Editor, Pending, RunState};
 use crate::app::browse::Purpose;
 use crate::app::orbit::ViewSide;
+use crate::stage::fit_map::FitMap;
 
 /// Something the user asks the editor to do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,6 +49,8 @@ pub enum Action {
     Follow,
     /// Close the window (asks first when there are unsaved changes).
     Quit,
+    /// Colour the cloth by the next fit map (none, strain, contact).
+    NextFitMap,
 }
 
 impl Editor {
@@ -82,6 +85,13 @@ impl Editor {
             Action::Frame => self.frame_figure(),
             Action::View(side) => self.view_from(side),
             Action::Follow => self.camera.follow = !self.camera.follow,
+            Action::NextFitMap => {
+                self.fit_map = match self.fit_map {
+                    None => Some(FitMap::Strain),
+                    Some(FitMap::Strain) => Some(FitMap::Contact),
+                    Some(FitMap::Contact) => None,
+                }
+            }
             Action::Quit => {
                 if self.request_quit() {
                     self.quit = true;

@@ -121,14 +121,17 @@ impl Editor {
     }
 
     /// Makes `document` the editor's: fabrics and presets reach the running
-    /// simulation like any change; anything else resolves the scene again.
+    /// simulation like any change, the export folder is taken as it is;
+    /// anything else resolves the scene again.
     fn apply(&mut self, document: Document) {
         if document.quality != self.quality {
             self.set_effort(document.quality);
         }
         let current = self.document().file;
-        if only_fabrics_differ(&current, &document.file) {
+        if only_live_settings_differ(&current, &document.file) {
             self.apply_fabrics(&document.file);
+            self.scene.file.export = document.file.export.clone();
+            self.fill_paths();
         } else if current != document.file {
             self.resolve(document.file);
         }
@@ -159,10 +162,12 @@ impl Editor {
     }
 }
 
-/// Whether two scene files differ in their garments' fabrics and presets alone.
-fn only_fabrics_differ(a: &SceneFile, b: &SceneFile) -> bool {
+/// Whether two scene files differ in what changes without a restart alone:
+/// their garments' fabrics and presets, the export folder.
+fn only_live_settings_differ(a: &SceneFile, b: &SceneFile) -> bool {
     let blank = |file: &SceneFile| {
         let mut file = file.clone();
+        file.export = Default::default();
         for g in &mut file.garments {
             g.fabric = toml::Table::new();
             g.preset = String::new();
@@ -184,8 +189,10 @@ mod tests {
         let a: SceneFile = toml::from_str(text).unwrap();
         let mut b = a.clone();
         b.garments[0].preset = "silk".into();
-        assert!(only_fabrics_differ(&a, &b));
+        assert!(only_live_settings_differ(&a, &b));
+        b.export.folder = Some("renders".into());
+        assert!(only_live_settings_differ(&a, &b), "the export folder too");
         b.garments[0].translation_m[1] = 0.5;
-        assert!(!only_fabrics_differ(&a, &b));
+        assert!(!only_live_settings_differ(&a, &b));
     }
 }

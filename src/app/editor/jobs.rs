@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use super::Editor;
-use crate::app::export::{self, ExportKind};
+use crate::app::export::{self, ExportKind, ImageCamera, ImageRequest};
 use crate::app::job::Job;
 use crate::app::reference;
 
@@ -17,14 +17,45 @@ impl Editor {
             return self.tell("nothing to export yet: Simulate or Bake first", false);
         }
         let dir = PathBuf::from(self.paths.export.trim());
+        self.remember_export_folder(&dir);
         let frames = self.timeline.frames().to_vec();
         self.export = Some(export::start(kind, self.scene.clone(), frames, self.light_rig().clone(), dir));
     }
 
+    /// Exports PNG frames as the Export panel's choices say, with the fit
+    /// map shown (and its legend).
+    pub fn export_images(&mut self) {
+        let [w, h] = self.viewport_pixels;
+        let choices = self.images;
+        let request = ImageRequest {
+            size: choices.size.unwrap_or((w.max(16), h.max(16))),
+            camera: match choices.through_view {
+                true => ImageCamera::View(self.camera, self.figure.clone()),
+                false => ImageCamera::Scene,
+            },
+            map: self.fit_map,
+            only_frame: (!choices.all_frames).then(|| self.timeline.current().min(self.timeline.last())),
+        };
+        self.export(ExportKind::Images(request));
+    }
+
+    /// Keeps the export folder in the scene file (relative to it), so the
+    /// next export of this scene goes there too.
+    fn remember_export_folder(&mut self, dir: &std::path::Path) {
+        let relative = crate::app::browse::relative_to(dir, &self.base_dir());
+        if self.scene.file.export.folder.as_ref() != Some(&relative) {
+            self.scene.file.export.folder = Some(relative);
+            self.commit("export folder");
+        }
+    }
+
     pub(super) fn poll_export(&mut self) {
-        let Some(result) = self.export.as_mut().and_then(Job::poll) else { return };
+        let Some(job) = &mut self.export else { return };
+        let Some(result) = job.poll() else { return };
+        let (cancelled, done, total) = (job.cancelled(), job.done, job.total);
         self.export = None;
         match result {
+            _ if cancelled => self.tell(format!("export cancelled after {done} of {total} frames"), false),
             Ok(dir) => self.tell(format!("exported to {}", dir.display()), false),
             Err(reason) => self.tell(format!("export stopped: {reason}"), true),
         }

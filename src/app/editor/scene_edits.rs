@@ -241,7 +241,6 @@ impl Editor {
             self.camera.frame_all();
             self.saved = self.scene.to_file();
             self.forget_history();
-            self.paths.export = format!("out/{}", self.scene.name);
         }
         self.fill_paths();
     }

@@ -292,6 +292,8 @@ struct Workspace {
     moved: Vec<bool>,
     /// See [`PassState::pushed_off`].
     pushed_off: Vec<Vector3<f64>>,
+    /// Normal impulse each cloth particle took from the obstacles this step, N·s.
+    obstacle_impulse: Vec<f64>,
     /// The step's frame: boxes span each point's start and its end minus
     /// this, m (see [`CollisionPipeline::frame_obstacles`]).
     shift: Vector3<f64>,
@@ -528,6 +530,13 @@ impl CollisionPipeline {
         report
     }
 
+    /// The normal impulse each cloth particle took from the obstacles
+    /// (colliders' meshes and sharp features) in the last resolve's
+    /// impulse passes, N·s: how hard the cloth is pressed on the body.
+    pub fn obstacle_impulses(&self) -> &[f64] {
+        &self.ws.obstacle_impulse
+    }
+
     /// Runs the pass hook after `stage` on the cloth's end positions and
     /// velocities and marks the points it moved.
     fn run_hook(&mut self, hook: PassHook, stage: ResponseStage) {
@@ -600,6 +609,8 @@ impl CollisionPipeline {
         ws.moved.resize(ws.start.len(), false);
         ws.pushed_off.clear();
         ws.pushed_off.resize(self.particles.len(), Vector3::zeros());
+        ws.obstacle_impulse.clear();
+        ws.obstacle_impulse.resize(self.particles.len(), 0.0);
         ws.held.clear();
         ws.held.resize(cloth.start.len(), None);
     }
@@ -647,17 +658,21 @@ impl CollisionPipeline {
         let n = self.particles.len();
         let holds = &self.obstacles.holds;
         ws.pushed_off.iter_mut().for_each(|p| *p = Vector3::zeros());
-        let pushed_off = &mut ws.pushed_off;
+        let (pushed_off, obstacle_impulse) = (&mut ws.pushed_off, &mut ws.obstacle_impulse);
         let mut respond = |c: &Contact| {
-            let acted = points.respond(c);
-            if acted && c.nodes.iter().any(|&i| (i as usize).checked_sub(n).is_some_and(|o| holds[o])) {
-                for (&i, &w) in c.nodes.iter().zip(&c.hit.weights) {
-                    if (i as usize) < n {
-                        pushed_off[i as usize] += c.hit.normal * w;
-                    }
+            let Some(impulse) = points.respond(c) else { return false };
+            let cloth_nodes = || c.nodes.iter().zip(&c.hit.weights).filter(|(i, _)| (**i as usize) < n);
+            if c.nodes.iter().any(|&i| i as usize >= n) {
+                for (&i, &w) in cloth_nodes() {
+                    obstacle_impulse[i as usize] += w.abs() * impulse;
                 }
             }
-            acted
+            if c.nodes.iter().any(|&i| (i as usize).checked_sub(n).is_some_and(|o| holds[o])) {
+                for (&i, &w) in cloth_nodes() {
+                    pushed_off[i as usize] += c.hit.normal * w;
+                }
+            }
+            true
         };
         let acted = ws.contacts.iter().fold(false, |acted, c| respond(c) | acted);
         for _ in 0..self.settings.constraint_sweeps {

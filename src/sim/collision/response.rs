@@ -120,13 +120,15 @@ impl Points<'_> {
     }
 
     /// Applies contact `c`'s impulse and friction if it needs them; returns
-    /// true if it did. A deficit that would leave the features short of the
-    /// thickness by less than [`SATISFIED`] of it is round-off, not a need.
-    pub fn respond(&mut self, c: &Contact) -> bool {
+    /// the normal impulse per unit of a point's weight (each point `i` of
+    /// the contact receives `|wᵢ|` of it), N·s, if it did. A deficit that
+    /// would leave the features short of the thickness by less than
+    /// [`SATISFIED`] of it is round-off, not a need.
+    pub fn respond(&mut self, c: &Contact) -> Option<f64> {
         let deficit = c.deficit(self.velocity, self.h);
         let k = self.effective_inverse_mass(c);
         if deficit <= SATISFIED * c.thickness / self.h || k == 0.0 {
-            return false;
+            return None;
         }
         let n = c.hit.normal;
         let relative = c.relative_velocity(self.velocity);
@@ -135,7 +137,7 @@ impl Points<'_> {
         let friction =
             if slide > 0.0 { tangential * ((c.friction * deficit).min(slide) / slide) } else { Vector3::zeros() };
         self.push(c, (n * deficit - friction) / k);
-        true
+        Some(deficit / k)
     }
 }
 
@@ -251,7 +253,7 @@ mod tests {
             thickness: 0.1,
             friction: 0.0,
         };
-        assert!(points.respond(&contact));
+        assert!(points.respond(&contact).is_some());
         let v_n: f64 = (0..4).map(|k| points.velocity[k].y * weights[k]).sum();
         assert!(v_n.abs() < 1e-12, "the approach is cancelled: {v_n}");
         // Paper eq. 7: Ĩ = 2I/(1 + Σw²), I = m v_N / 2 → the vertex keeps −Ĩ/m.
