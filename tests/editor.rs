@@ -905,3 +905,69 @@ fn png_export_draws_this_view_with_the_fit_map_legend_and_a_cancel_is_a_cancel()
     assert!(messages.iter().any(|m| !m.error && m.text.starts_with("export cancelled after")), "{messages:?}");
     assert!(!messages.iter().any(|m| m.error));
 }
+
+/// Pin A (cotton), switch to silk and simulate: A and B side by side show
+/// two different images at the same frame, and toggling shows A, then B.
+#[test]
+fn a_b_compare_shows_two_images_that_differ_after_a_preset_switch() {
+    let dir = tempfile::tempdir().unwrap();
+    let gpu = Gpu::headless().unwrap_or_else(|e| panic!("{e}"));
+    let mut ui_renderer =
+        egui_wgpu::Renderer::new(&gpu.device, wgpu::TextureFormat::Rgba8Unorm, egui_wgpu::RendererOptions::default());
+    let mut viewport = Viewport::new(&gpu, wgpu::TextureFormat::Rgba8Unorm).expect("lavapipe runs the renderer");
+    viewport.resolution_scale = 1.0;
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the cotton bake", |e| e.run == RunState::Idle && e.timeline.last() == e.scene.frame_count);
+    h.get_by_label("Pin A").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::ComboBox, "Preset").click();
+    h.run_steps(2);
+    h.get_by_label("silk").click();
+    h.run_steps(2);
+    h.get_by_label("Bake").click();
+    h.run_steps(2);
+    wait_until(&mut h, "the silk bake", |e| e.run == RunState::Idle && e.timeline.last() == e.scene.frame_count);
+    h.get_by_role_and_label(Role::ComboBox, "Compare").click();
+    h.run_steps(2);
+    h.get_by_label("A | B side by side").click();
+    h.run_steps(2);
+    let mut render = |h: &mut Harness<'_, Editor>| {
+        viewport.render(h.state_mut(), [480, 240], &mut ui_renderer);
+        viewport.image().unwrap().unwrap()
+    };
+    let both = render(&mut h);
+    let half = |x0: u32| image::RgbaImage::from_fn(240, 240, |x, y| *both.get_pixel(x0 + x, y));
+    let (a, b) = (half(0), half(240));
+    let shot = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/compare/side_by_side.png");
+    std::fs::create_dir_all(shot.parent().unwrap()).unwrap();
+    both.save(&shot).unwrap();
+    let (mean, share) = difference(&a, &b);
+    assert!(share > 0.02 && mean > 2.0, "A and B differ: mean {mean:.1}, {:.1} % of pixels", share * 100.0);
+
+    h.key_press(egui::Key::C);
+    h.run_steps(2);
+    assert_eq!(h.state().compare, drape::app::editor::Compare::A);
+    let only_a = render(&mut h);
+    h.key_press(egui::Key::C);
+    h.run_steps(2);
+    let only_b = render(&mut h);
+    let (mean, _) = difference(&only_a, &only_b);
+    assert!(mean > 2.0, "toggling shows another image: mean difference {mean:.1}");
+}
+
+/// Mean absolute difference of two images' channels and the share of
+/// pixels that differ by more than 24 in some channel.
+fn difference(a: &image::RgbaImage, b: &image::RgbaImage) -> (f64, f64) {
+    let pixels = a.pixels().zip(b.pixels());
+    let (mut sum, mut changed, mut count) = (0.0, 0usize, 0usize);
+    for (p, q) in pixels {
+        let d: Vec<i32> = (0..3).map(|c| (i32::from(p[c]) - i32::from(q[c])).abs()).collect();
+        sum += f64::from(d.iter().sum::<i32>()) / 3.0;
+        changed += usize::from(d.iter().any(|&x| x > 24));
+        count += 1;
+    }
+    (sum / count as f64, changed as f64 / count as f64)
+}

@@ -5,12 +5,14 @@
 
 mod actions;
 mod camera;
+mod compare;
 mod history;
 mod jobs;
 mod runs;
 mod scene_edits;
 
 pub use self::actions::Action;
+pub use self::compare::{Compare, Pinned};
 pub use self::history::{Document, History};
 pub use self::runs::FrameKind;
 
@@ -214,6 +216,10 @@ pub struct Editor {
     pub images: ImageChoices,
     /// The viewport's size, physical pixels (set by the panels).
     pub viewport_pixels: [u32; 2],
+    /// The result pinned as A, if any.
+    pub pinned: Option<Pinned>,
+    /// What the viewport shows of A and B.
+    pub compare: Compare,
 }
 
 /// An action that would lose unsaved changes, waiting for the user to say
@@ -281,6 +287,8 @@ impl Editor {
             fit_map: None,
             images: ImageChoices::default(),
             viewport_pixels: [1280, 720],
+            pinned: None,
+            compare: Compare::B,
         };
         editor.fill_paths();
         editor

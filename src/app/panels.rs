@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use egui::{Align2, Color32, PointerButton, Rect, Sense, Ui, Vec2};
 
 use super::browse::Purpose;
-use super::editor::{Editor, FrameKind, Pending, Quality, RunState};
+use super::editor::{Compare, Editor, FrameKind, Pending, Quality, RunState};
 use super::export::ExportKind;
 use super::fabric_panel;
 use super::stats::overlay_lines;
@@ -70,6 +70,8 @@ fn toolbar(ui: &mut Ui, editor: &mut Editor) {
         light_menu(ui, editor);
         map_menu(ui, editor);
         ui.separator();
+        compare_controls(ui, editor);
+        ui.separator();
         if editor.is_loading() {
             ui.spinner();
             ui.label("loading…");
@@ -106,6 +108,60 @@ fn map_menu(ui: &mut Ui, editor: &mut Editor) {
             "Colour the cloth by how far it stretches (of its limit) or how hard it presses on the body (M)",
         );
     editor.fit_map = map;
+}
+
+/// Pin the current result as A; then show A, B or both.
+fn compare_controls(ui: &mut Ui, editor: &mut Editor) {
+    let tip = "Keep the current result as A, to compare with the next one (P)";
+    if ui.button("Pin A").on_hover_text(tip).clicked() {
+        editor.pin_a();
+    }
+    let Some(pin) = &editor.pinned else { return };
+    let a = format!("A: {}", pin.label);
+    let name = |c: Compare| match c {
+        Compare::A => a.clone(),
+        Compare::B => "B: current".to_owned(),
+        Compare::SideBySide => "A | B side by side".to_owned(),
+    };
+    let mut compare = editor.compare;
+    egui::ComboBox::from_label("Compare")
+        .selected_text(name(compare))
+        .show_ui(ui, |ui| {
+            for c in [Compare::SideBySide, Compare::A, Compare::B] {
+                ui.selectable_value(&mut compare, c, name(c));
+            }
+        })
+        .response
+        .on_hover_text("Same frame, same camera (C switches)");
+    editor.compare = compare;
+    if ui.button("Unpin").on_hover_text("Drop A").clicked() {
+        editor.unpin();
+    }
+}
+
+/// Names what the viewport shows while a result is pinned: A and B over
+/// their halves, or A alone.
+fn compare_labels(painter: &egui::Painter, rect: Rect, editor: &Editor) {
+    let Some(pin) = &editor.pinned else { return };
+    let b = format!("B: {}", editor.result_label());
+    let a = format!("A: {}", pin.label);
+    let label = |at: egui::Pos2, text: String| {
+        let font = egui::FontId::proportional(16.0);
+        let galley = painter.layout_no_wrap(text, font, Color32::WHITE);
+        let place = Rect::from_min_size(at - Vec2::new(galley.size().x, 0.0), galley.size());
+        painter.rect_filled(place.expand(4.0), 3.0, Color32::from_black_alpha(160));
+        painter.galley(place.min, galley, Color32::WHITE);
+    };
+    let top_right = rect.right_top() + Vec2::new(-10.0, 10.0);
+    match editor.compare {
+        Compare::SideBySide => {
+            label(rect.center_top() + Vec2::new(-10.0, 10.0), a);
+            label(top_right, b);
+            painter.line_segment([rect.center_top(), rect.center_bottom()], egui::Stroke::new(2.0, Color32::BLACK));
+        }
+        Compare::A => label(top_right, a),
+        Compare::B => label(top_right, b),
+    }
 }
 
 /// The fit map's colour scale, in the viewport's lower left corner.
@@ -698,6 +754,7 @@ fn viewport_ui(ui: &mut Ui, editor: &mut Editor, drawn: bool) -> [u32; 2] {
         painter.galley(at, galley, Color32::WHITE);
     }
     map_legend(&painter, rect, editor);
+    compare_labels(&painter, rect, editor);
     editor.viewport_pixels
 }
 

@@ -47,6 +47,8 @@ pub const SHORTCUTS: &[Shortcut] = &[
     key(NONE, Key::ArrowRight, Action::NextFrame, "Next frame"),
     key(NONE, Key::F, Action::Frame, "Frame the garment and body"),
     key(NONE, Key::M, Action::NextFitMap, "Fabric look → strain map → contact map"),
+    key(NONE, Key::P, Action::PinA, "Pin the current result as A"),
+    key(NONE, Key::C, Action::NextCompare, "Compare: A → B → A and B side by side"),
     key(CTRL, Key::Num1, Action::View(ViewSide::Back), "Back view"),
     key(NONE, Key::Num1, Action::View(ViewSide::Front), "Front view"),
     key(CTRL, Key::Num3, Action::View(ViewSide::Left), "Left side view"),

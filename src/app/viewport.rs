@@ -4,13 +4,17 @@
 //! size, scene), so a software rasteriser keeps the UI responsive. On a software rasteriser it also draws half the window's
 //! resolution, and while the image changes (the cloth simulating or playing,
 //! the camera moving) one sample per pixel: 4× MSAA there costs half of each
-//! render. Once the view is still it is drawn again, anti-aliased.
+//! render. Once the view is still it is drawn again, anti-aliased. With a
+//! result pinned as A it draws A, or A and the current result B side by
+//! side (each into half the image, then copied into place).
 
 use std::sync::Arc;
 
 use super::blit::BlitPipeline;
-use super::editor::Editor;
+use super::editor::{Compare, Editor};
+use super::worker::Frame;
 use crate::render::{Gpu, OrbitCamera, RenderError, Renderer, TextureTarget};
+use crate::scene::Scene;
 use crate::stage::Stage;
 use crate::stage::fit_map::{FitMap, map_values};
 
@@ -25,16 +29,63 @@ struct Shown {
     size: [u32; 2],
     body_only: bool,
     map: Option<FitMap>,
+    /// The pin drawn, its frame's positions, and how.
+    compare: Option<(u64, usize, Compare)>,
+}
+
+/// One scene drawn: its stage, and a renderer holding its meshes.
+struct Drawn {
+    /// The scene generation (or pin) and whether a fit map colours it.
+    key: (u64, bool),
+    stage: Stage,
+    renderer: Renderer,
+}
+
+impl Drawn {
+    /// Makes `drawn` show `scene` for `key` unless it does, reusing its
+    /// renderer (or `spare`) for the new meshes.
+    fn ensure(
+        drawn: &mut Option<Drawn>,
+        spare: &mut Option<Renderer>,
+        gpu: &Gpu,
+        scene: &Scene,
+        key: (u64, bool),
+    ) -> Result<(), RenderError> {
+        if drawn.as_ref().is_some_and(|d| d.key == key) {
+            return Ok(());
+        }
+        let mut renderer = match drawn.take().map(|d| d.renderer).or_else(|| spare.take()) {
+            Some(renderer) => renderer,
+            None => Renderer::new(gpu)?,
+        };
+        let mut stage = Stage::new(scene)?;
+        if key.1 {
+            stage.use_fit_map();
+        }
+        renderer.set_meshes(stage.meshes());
+        *drawn = Some(Drawn { key, stage, renderer });
+        Ok(())
+    }
+}
+
+/// What one pane shows.
+struct Pane<'a> {
+    scene: &'a Scene,
+    frame: &'a Frame,
 }
 
 /// The viewport's GPU side.
 pub struct Viewport {
     gpu: Gpu,
-    renderer: Renderer,
-    /// The stage drawn, for the editor's scene generation and whether a fit
-    /// map colours it.
-    stage: Option<((u64, bool), Stage)>,
+    /// The current scene (B).
+    current: Option<Drawn>,
+    /// The pinned result (A), while shown.
+    pinned: Option<Drawn>,
+    /// A renderer made and not yet used (the first scene takes it).
+    spare: Option<Renderer>,
     target: Option<TextureTarget>,
+    /// The left and right halves of a side-by-side image.
+    halves: Option<(TextureTarget, TextureTarget)>,
     blit: BlitPipeline,
     /// What the last image shows, and whether it was anti-aliased.
     shown: Option<(Shown, bool)>,
@@ -52,9 +103,11 @@ impl Viewport {
         let software = gpu.software;
         Ok(Viewport {
             gpu: gpu.clone(),
-            renderer: Renderer::new(gpu)?,
-            stage: None,
+            current: None,
+            pinned: None,
+            spare: Some(Renderer::new(gpu)?),
             target: None,
+            halves: None,
             blit: BlitPipeline::new(&gpu.device, surface_format),
             shown: None,
             antialias_moving: !software,
@@ -83,47 +136,23 @@ impl Viewport {
     /// when anything shown changed, or anti-aliased when it did not and the
     /// editor is still. Sets the editor's automatic framing.
     pub fn render(&mut self, editor: &mut Editor, size: [u32; 2], ui_renderer: &mut egui_wgpu::Renderer) {
-        let key = (editor.generation, editor.fit_map.is_some());
-        if self.stage.as_ref().is_none_or(|(k, _)| *k != key) {
-            match Stage::new(&editor.scene) {
-                Ok(mut stage) => {
-                    if key.1 {
-                        stage.use_fit_map();
-                    }
-                    self.renderer.set_meshes(stage.meshes());
-                    self.stage = Some((key, stage));
-                }
-                Err(e) => {
-                    editor.tell(format!("cannot draw the scene: {e}"), true);
-                    self.stage = None;
-                    return;
+        let map = editor.fit_map.is_some();
+        let key = (editor.generation, map);
+        if let Err(e) = Drawn::ensure(&mut self.current, &mut self.spare, &self.gpu, &editor.scene, key) {
+            return editor.tell(format!("cannot draw the scene: {e}"), true);
+        }
+        let compare = editor.pinned.as_ref().filter(|_| editor.compare != Compare::B);
+        match compare {
+            Some(pin) => {
+                if let Err(e) = Drawn::ensure(&mut self.pinned, &mut None, &self.gpu, &pin.scene, (pin.id, map)) {
+                    return editor.tell(format!("cannot draw A: {e}"), true);
                 }
             }
+            None => self.pinned = None,
         }
-        let Some((_, stage)) = &mut self.stage else { return };
-        let scaled = size.map(|s| ((s as f32 * self.resolution_scale).round() as u32).clamp(1, 4096));
-        if self.target.as_ref().is_none_or(|t| t.size != (scaled[0], scaled[1])) {
-            let target = TextureTarget::new(&self.gpu, scaled[0], scaled[1]);
-            ui_renderer.callback_resources.insert(self.blit.image(&self.gpu.device, &target.encoded));
-            self.target = Some(target);
-        }
-        let Some(target) = &self.target else { return };
-        let framed = stage.camera(target.aspect(), 0.0);
-        editor.framed = Some(framed);
-        let camera = editor.shown_camera();
-        let current = editor.timeline.current();
-        let Some(frame) = editor.timeline.shown() else { return };
-        let time_s = editor.timeline.time_of(current);
-        let shown = Shown {
-            generation: editor.generation,
-            positions: Arc::as_ptr(&frame.positions) as usize,
-            time_s,
-            camera,
-            rig: editor.rig,
-            size: scaled,
-            body_only: editor.timeline.body_only,
-            map: editor.fit_map,
-        };
+        let scaled = size.map(|s| ((s as f32 * self.resolution_scale).round() as u32).clamp(2, 4096));
+        self.fit_targets(scaled, editor.compare == Compare::SideBySide && compare.is_some(), ui_renderer);
+        let Some(shown) = self.shown_now(editor) else { return };
         let (same, refined) = match &self.shown {
             Some((last, antialiased)) => (*last == shown, *antialiased),
             None => (false, false),
@@ -132,13 +161,92 @@ impl Viewport {
         if same && (refined || !antialiased) {
             return;
         }
-        if let Some(map) = editor.fit_map {
-            stage.set_fit_map_values(map_values(map, &editor.scene, &frame.positions, &frame.contact_force_n));
-        }
-        stage.pose(&mut self.renderer, &frame.positions, time_s);
-        stage.show_garments(&mut self.renderer, !shown.body_only);
-        let view = stage.view_through(camera, target.aspect(), editor.light_rig(), time_s);
-        target.render(&self.gpu, &self.renderer, &view, antialiased);
+        self.draw(editor, &shown, antialiased);
         self.shown = Some((shown, antialiased));
     }
+
+    /// Makes the image `size` pixels, and its halves when `split`.
+    fn fit_targets(&mut self, size: [u32; 2], split: bool, ui_renderer: &mut egui_wgpu::Renderer) {
+        if self.target.as_ref().is_none_or(|t| t.size != (size[0], size[1])) {
+            let target = TextureTarget::new(&self.gpu, size[0], size[1]);
+            ui_renderer.callback_resources.insert(self.blit.image(&self.gpu.device, &target.encoded));
+            self.target = Some(target);
+        }
+        let half = (size[0] / 2, size[1]);
+        if !split {
+            self.halves = None;
+        } else if self.halves.as_ref().is_none_or(|(left, _)| left.size != half) {
+            let right = (size[0] - half.0, size[1]);
+            self.halves =
+                Some((TextureTarget::new(&self.gpu, half.0, half.1), TextureTarget::new(&self.gpu, right.0, right.1)));
+        }
+    }
+
+    /// What would be drawn now; sets the editor's framing for the pane's shape.
+    fn shown_now(&self, editor: &mut Editor) -> Option<Shown> {
+        let current = self.current.as_ref()?;
+        let target = self.target.as_ref()?;
+        let aspect = self.halves.as_ref().map_or(target.aspect(), |(left, _)| left.aspect());
+        editor.framed = Some(current.stage.camera(aspect, 0.0));
+        let frame = editor.timeline.shown()?;
+        let k = editor.timeline.current();
+        let compare = editor.pinned.as_ref().filter(|_| editor.compare != Compare::B).and_then(|pin| {
+            let a = pin.frame(k)?;
+            Some((pin.id, Arc::as_ptr(&a.positions) as usize, editor.compare))
+        });
+        Some(Shown {
+            generation: editor.generation,
+            positions: Arc::as_ptr(&frame.positions) as usize,
+            time_s: editor.timeline.time_of(k),
+            camera: editor.shown_camera(),
+            rig: editor.rig,
+            size: [target.size.0, target.size.1],
+            body_only: editor.timeline.body_only,
+            map: editor.fit_map,
+            compare,
+        })
+    }
+
+    fn draw(&mut self, editor: &Editor, shown: &Shown, antialiased: bool) {
+        let k = editor.timeline.current();
+        let (Some(frame), Some(target)) = (editor.timeline.shown(), &self.target) else { return };
+        let b = Pane { scene: &editor.scene, frame };
+        let a = editor.pinned.as_ref().and_then(|pin| Some(Pane { scene: &pin.scene, frame: pin.frame(k)? }));
+        let draw = |drawn: &mut Option<Drawn>, pane: &Pane, into: &TextureTarget| {
+            if let Some(d) = drawn {
+                draw_pane(&self.gpu, d, pane, into, editor, shown, antialiased);
+            }
+        };
+        match (shown.compare, a) {
+            (Some((_, _, Compare::SideBySide)), Some(a)) => {
+                let Some((left, right)) = &self.halves else { return };
+                draw(&mut self.pinned, &a, left);
+                draw(&mut self.current, &b, right);
+                left.copy_into(&self.gpu, target, 0);
+                right.copy_into(&self.gpu, target, left.size.0);
+            }
+            (Some((_, _, Compare::A)), Some(a)) => draw(&mut self.pinned, &a, target),
+            _ => draw(&mut self.current, &b, target),
+        }
+    }
+}
+
+/// Draws `pane` with `drawn` into `into` as `shown` says.
+fn draw_pane(
+    gpu: &Gpu,
+    drawn: &mut Drawn,
+    pane: &Pane,
+    into: &TextureTarget,
+    editor: &Editor,
+    shown: &Shown,
+    antialiased: bool,
+) {
+    let Drawn { stage, renderer, .. } = drawn;
+    if let Some(map) = shown.map {
+        stage.set_fit_map_values(map_values(map, pane.scene, &pane.frame.positions, &pane.frame.contact_force_n));
+    }
+    stage.pose(renderer, &pane.frame.positions, shown.time_s);
+    stage.show_garments(renderer, !shown.body_only);
+    let view = stage.view_through(shown.camera, into.aspect(), editor.light_rig(), shown.time_s);
+    into.render(gpu, renderer, &view, antialiased);
 }

@@ -176,7 +176,8 @@ impl TextureTarget {
         let single_depth = sampled(gpu, "depth", size, DEPTH_FORMAT, 1);
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC;
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST;
         let plain = wgpu::TextureFormat::Rgba8Unorm;
         let resolved = attachment(gpu, "viewport", size, COLOR_FORMAT, 1, usage, &[plain]);
         let encoded = resolved.create_view(&wgpu::TextureViewDescriptor { format: Some(plain), ..Default::default() });
@@ -206,6 +207,23 @@ impl TextureTarget {
         } else {
             renderer.encode(&mut encoder, view, &self.resolved, None, &self.single_depth);
         }
+        gpu.queue.submit([encoder.finish()]);
+    }
+
+    /// Copies the last image into `into` with its left edge at column `x`
+    /// (side-by-side views), clipped to `into`.
+    pub fn copy_into(&self, gpu: &Gpu, into: &TextureTarget, x: u32) {
+        let width = self.size.0.min(into.size.0.saturating_sub(x));
+        let height = self.size.1.min(into.size.1);
+        if width == 0 || height == 0 {
+            return;
+        }
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("compose") });
+        encoder.copy_texture_to_texture(
+            self.image.as_image_copy(),
+            wgpu::TexelCopyTextureInfo { origin: wgpu::Origin3d { x, y: 0, z: 0 }, ..into.image.as_image_copy() },
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
         gpu.queue.submit([encoder.finish()]);
     }
 

@@ -51,6 +51,10 @@ pub enum Action {
     Quit,
     /// Colour the cloth by the next fit map (none, strain, contact).
     NextFitMap,
+    /// Pin the current result as A.
+    PinA,
+    /// Show A, B, or both side by side, in turn.
+    NextCompare,
 }
 
 impl Editor {
@@ -92,6 +96,8 @@ impl Editor {
                     Some(FitMap::Contact) => None,
                 }
             }
+            Action::PinA => self.pin_a(),
+            Action::NextCompare => self.next_compare(),
             Action::Quit => {
                 if self.request_quit() {
                     self.quit = true;

@@ -241,6 +241,7 @@ impl Editor {
             self.camera.frame_all();
             self.saved = self.scene.to_file();
             self.forget_history();
+            self.unpin();
         }
         self.fill_paths();
     }
