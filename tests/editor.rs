@@ -70,6 +70,23 @@ fn wait_until(harness: &mut Harness<'_, Editor>, what: &str, done: impl Fn(&Edit
     harness.run_steps(3);
 }
 
+/// The fabric panel's slider labelled `label`.
+fn fabric_parameter(label: &str) -> &'static drape::app::fabric_panel::Parameter {
+    PARAMETERS.iter().find(|p| p.label == label).unwrap_or_else(|| panic!("no fabric slider '{label}'"))
+}
+
+/// Sets the fabric slider `label` to the SI `value` as a user would drag it
+/// (on its named scale, in g/m² or mm).
+fn set_fabric(harness: &Harness<'_, Editor>, label: &str, value: f64) {
+    let shown = fabric_parameter(label).shown(value);
+    harness.get_by_role_and_label(Role::Slider, label).set_value_accesskit(shown);
+}
+
+/// Whether `a` and `b` agree to 1e-9 of their size (a slider's scale and back).
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
+}
+
 fn slider_value(harness: &Harness<'_, Editor>, label: &str) -> f64 {
     let node = harness.get_by_role_and_label(Role::Slider, label);
     node.accesskit_node().numeric_value().unwrap_or_else(|| panic!("slider '{label}' has no value"))
@@ -81,37 +98,38 @@ fn moving_the_stretch_slider_changes_the_workers_fabric() {
     let mut h = harness(Editor::new(small_scene(dir.path())));
     h.run_steps(2);
     assert_eq!(h.state().simulated_fabrics[0].stretch_stiffness_n_per_m, 1500.0, "cotton");
-    h.get_by_role_and_label(Role::Slider, "Stretch stiffness").set_value_accesskit(3000.0);
+    set_fabric(&h, "Stretch", 3000.0);
     h.run_steps(2);
-    assert_eq!(h.state().scene.garments[0].fabric.stretch_stiffness_n_per_m, 3000.0);
+    assert!(close(h.state().scene.garments[0].fabric.stretch_stiffness_n_per_m, 3000.0));
     wait_until(&mut h, "the worker to take the new stiffness", |e| {
-        e.simulated_fabrics[0].stretch_stiffness_n_per_m == 3000.0
+        close(e.simulated_fabrics[0].stretch_stiffness_n_per_m, 3000.0)
     });
     assert!(h.state().dirty(), "an edit marks the scene unsaved");
 }
 
-/// The collision panel (PAPER Fig. 10c): the garment's contact thickness and
-/// friction change live, the same values the fabric panel shows; a pipeline
+/// Contact (PAPER Fig. 10c): the garment's thickness and friction change
+/// live in the fabric panel, the one place they are; a pipeline
 /// setting restarts the simulation with the scene edited, and a second one
 /// (the edge repulsion) made while the first (constraint sweeps) may still be
 /// loading keeps the first.
 #[test]
-fn the_collision_panel_edits_contact_live_and_the_pipeline_by_restart() {
+fn contact_changes_live_and_the_collision_pipeline_by_restart() {
     let dir = tempfile::tempdir().unwrap();
     let mut h = harness(Editor::new(small_scene(dir.path())));
     h.run_steps(2);
-    h.get_by_label("Collision").click();
-    h.run_steps(2);
-    h.get_by_role_and_label(Role::Slider, "Contact thickness").set_value_accesskit(0.004);
-    h.get_by_role_and_label(Role::Slider, "Contact friction").set_value_accesskit(0.8);
+    set_fabric(&h, "Thickness", 0.004);
+    set_fabric(&h, "Friction", 0.8);
     h.run_steps(2);
     let fabric = &h.state().scene.garments[0].fabric;
-    assert_eq!((fabric.thickness_m, fabric.friction), (0.004, 0.8));
-    assert_eq!(slider_value(&h, "Thickness"), 0.004, "the fabric panel shows the same thickness");
-    assert_eq!(slider_value(&h, "Friction"), 0.8, "and the same friction");
+    assert!(close(fabric.thickness_m, 0.004) && close(fabric.friction, 0.8));
+    assert_eq!(slider_value(&h, "Thickness"), 4.0, "shown in mm");
     wait_until(&mut h, "the worker to take the new contact", |e| {
-        (e.simulated_fabrics[0].thickness_m, e.simulated_fabrics[0].friction) == (0.004, 0.8)
+        close(e.simulated_fabrics[0].thickness_m, 0.004) && close(e.simulated_fabrics[0].friction, 0.8)
     });
+    h.get_by_label("Collision").click();
+    h.run_steps(2);
+    h.get_all_by_label("Advanced").last().expect("the collision panel's Advanced fold").click();
+    h.run_steps(2);
 
     h.get_by_role_and_label(Role::SpinButton, "Constraint sweeps").set_value_accesskit(12.0);
     h.run_steps(2);
@@ -121,7 +139,7 @@ fn the_collision_panel_edits_contact_live_and_the_pipeline_by_restart() {
     h.run_steps(3);
     let collision = &h.state().scene.file.collision;
     assert_eq!((collision.constraint_sweeps, collision.feature_repulsion_stiffness_n_per_m), (12, 45.0));
-    assert_eq!(h.state().scene.garments[0].fabric.thickness_m, 0.004, "the live edit survives the restart");
+    assert!(close(h.state().scene.garments[0].fabric.thickness_m, 0.004), "the live edit survives the restart");
 }
 
 #[test]
@@ -135,8 +153,10 @@ fn choosing_a_preset_sets_every_slider_to_its_values() {
     h.run_steps(3);
     let mut denim = Preset::builtin("denim").unwrap().fabric;
     assert_eq!(h.state().scene.garments[0].fabric, denim);
+    h.get_all_by_label("Advanced").next().expect("the fabric panel's Advanced fold").click();
+    h.run_steps(2);
     for p in &PARAMETERS {
-        let expected = *(p.value)(&mut denim);
+        let expected = p.shown(*(p.value)(&mut denim));
         let shown = slider_value(&h, p.label);
         assert!((shown - expected).abs() <= 1e-9 * expected.abs(), "{}: slider {shown}, denim {expected}", p.label);
     }
@@ -327,7 +347,7 @@ fn a_saved_scene_reopens_to_the_same_bake_and_the_export_holds_it() {
     h.run_steps(2);
     h.get_by_label("Final").click();
     h.run_steps(2);
-    h.get_by_role_and_label(Role::Slider, "Bend stiffness").set_value_accesskit(4e-5);
+    set_fabric(&h, "Bending", 4e-5);
     h.run_steps(2);
     h.get_by_label("Bake").click();
     h.run_steps(2);
@@ -347,7 +367,7 @@ fn a_saved_scene_reopens_to_the_same_bake_and_the_export_holds_it() {
     h.run_steps(2);
     assert!(!h.state().dirty(), "saved");
     let reopened = Scene::load(&dir.path().join("small.toml")).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(reopened.garments[0].fabric.bend_stiffness_n_m, 4e-5);
+    assert!(close(reopened.garments[0].fabric.bend_stiffness_n_m, 4e-5));
     assert_eq!(reopened.steps_per_frame, 4, "Final quality: twice the scene's 2 steps");
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let mut last = Vec::new();
@@ -366,7 +386,7 @@ fn quitting_with_unsaved_changes_asks_first() {
     let mut h = harness(Editor::new(small_scene(dir.path())));
     h.run_steps(2);
     assert!(h.state_mut().request_quit(), "nothing to lose: the window closes");
-    h.get_by_role_and_label(Role::Slider, "Air damping").set_value_accesskit(1.0);
+    set_fabric(&h, "Weight", 0.2);
     h.run_steps(2);
     assert!(!h.state_mut().request_quit(), "unsaved changes keep the window open");
     h.run_steps(3);
@@ -550,32 +570,34 @@ fn ctrl_z_restores_a_sliders_value_and_the_workers_fabric() {
     h.run_steps(2);
     let stiffness = |e: &Editor| e.simulated_fabrics[0].stretch_stiffness_n_per_m;
     for value in [2000.0, 2600.0, 3000.0] {
-        h.get_by_role_and_label(Role::Slider, "Stretch stiffness").set_value_accesskit(value);
+        set_fabric(&h, "Stretch", value);
         h.run_steps(2);
     }
-    wait_until(&mut h, "the worker to take 3000 N/m", |e| stiffness(e) == 3000.0);
+    wait_until(&mut h, "the worker to take 3000 N/m", |e| close(stiffness(e), 3000.0));
     assert!(h.state().title().ends_with(" •"), "{}", h.state().title());
 
     h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
     h.run_steps(2);
-    assert_eq!(slider_value(&h, "Stretch stiffness"), 1500.0, "one undo takes the whole drag back");
+    let cotton = fabric_parameter("Stretch").shown(1500.0);
+    assert_eq!(slider_value(&h, "Stretch"), cotton, "one undo takes the whole drag back");
     wait_until(&mut h, "the worker to take cotton's 1500 N/m again", |e| stiffness(e) == 1500.0);
     assert!(!h.state().dirty(), "back at the saved value: nothing unsaved");
     assert_eq!(h.state().title(), "drape — small");
 
     h.key_press_modifiers(egui::Modifiers::COMMAND | egui::Modifiers::SHIFT, egui::Key::Z);
     h.run_steps(2);
-    assert_eq!(slider_value(&h, "Stretch stiffness"), 3000.0, "redone");
-    wait_until(&mut h, "the worker to take 3000 N/m again", |e| stiffness(e) == 3000.0);
+    assert!(close(slider_value(&h, "Stretch"), fabric_parameter("Stretch").shown(3000.0)), "redone");
+    wait_until(&mut h, "the worker to take 3000 N/m again", |e| close(stiffness(e), 3000.0));
 
     h.get_by_label("Edit").click();
     h.run_steps(2);
-    h.get_by_label_contains("Undo Stretch stiffness of cloth").click();
+    h.get_by_label_contains("Undo Stretch of cloth").click();
     h.run_steps(2);
-    assert_eq!(slider_value(&h, "Stretch stiffness"), 1500.0, "undone from the menu");
+    assert_eq!(slider_value(&h, "Stretch"), cotton, "undone from the menu");
 }
 
-/// Space plays and pauses; typing a space in a path field does not.
+/// Space plays and pauses; typing a space in a path field does not; Help ▸
+/// Keyboard lists the keys.
 #[test]
 fn space_toggles_play_but_not_while_typing() {
     let dir = tempfile::tempdir().unwrap();
@@ -592,6 +614,13 @@ fn space_toggles_play_but_not_while_typing() {
     h.key_press(egui::Key::Space);
     h.run_steps(1);
     assert!(!h.state().timeline.playing, "a space typed in a field is text");
+
+    h.get_by_label("Help").click();
+    h.run_steps(2);
+    h.get_by_label("Keyboard").click();
+    h.run_steps(2);
+    h.get_by_label("Play / pause the frames");
+    h.get_by_label("Frame the garment and body");
 }
 
 /// Opening another scene with unsaved changes asks; Cancel keeps every
@@ -602,7 +631,7 @@ fn opening_a_scene_with_unsaved_changes_asks_and_cancel_keeps_everything() {
     std::fs::write(dir.path().join("other.toml"), SMALL_SCENE.replace("\"cloth\"", "\"shawl\"")).unwrap();
     let mut h = harness(Editor::new(small_scene(dir.path())));
     h.run_steps(2);
-    h.get_by_role_and_label(Role::Slider, "Air damping").set_value_accesskit(1.0);
+    set_fabric(&h, "Weight", 0.2);
     h.run_steps(2);
     let other = dir.path().join("other.toml").display().to_string();
     h.state_mut().paths.scene = other.clone();
@@ -615,7 +644,7 @@ fn opening_a_scene_with_unsaved_changes_asks_and_cancel_keeps_everything() {
     let editor = h.state();
     assert!(!editor.is_loading() && editor.pending.is_none(), "nothing opened");
     assert_eq!((editor.scene.name.as_str(), editor.scene.garments[0].name.as_str()), ("small", "cloth"));
-    assert_eq!(editor.scene.garments[0].fabric.air_damping_per_s, 1.0, "the change is kept");
+    assert!(close(editor.scene.garments[0].fabric.area_density_kg_per_m2, 0.2), "the change is kept");
     assert_eq!(editor.title(), "drape — small •");
 
     h.get_by_label("Open").click();
@@ -701,7 +730,7 @@ fn a_cancelled_bake_keeps_the_previous_bake_and_simulate_goes_on_past_the_end() 
     wait_until(&mut h, "the first bake", |e| e.run == RunState::Idle && e.timeline.last() == frames);
     let baked: Vec<_> = h.state().timeline.frames().iter().map(|f| f.positions.clone()).collect();
 
-    h.get_by_role_and_label(Role::Slider, "Stretch stiffness").set_value_accesskit(400.0);
+    set_fabric(&h, "Stretch", 400.0);
     h.run_steps(2);
     h.get_by_label("Bake").click();
     h.run_steps(2);

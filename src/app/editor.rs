@@ -220,6 +220,10 @@ pub struct Editor {
     pub pinned: Option<Pinned>,
     /// What the viewport shows of A and B.
     pub compare: Compare,
+    /// When the last frames of the running simulation arrived.
+    arrivals: std::collections::VecDeque<Instant>,
+    /// The overlay shows the engineering detail under its first line.
+    pub show_details: bool,
 }
 
 /// An action that would lose unsaved changes, waiting for the user to say
@@ -289,6 +293,8 @@ impl Editor {
             viewport_pixels: [1280, 720],
             pinned: None,
             compare: Compare::B,
+            arrivals: Default::default(),
+            show_details: false,
         };
         editor.fill_paths();
         editor

@@ -10,7 +10,7 @@ use super::browse::Purpose;
 use super::editor::{Compare, Editor, FrameKind, Pending, Quality, RunState};
 use super::export::ExportKind;
 use super::fabric_panel;
-use super::stats::overlay_lines;
+use super::stats::{overlay_lines, summary_line};
 use crate::export::Format;
 use crate::scene::preset::Preset;
 use crate::stage::fit_map::{FitMap, ramp};
@@ -108,6 +108,32 @@ fn map_menu(ui: &mut Ui, editor: &mut Editor) {
             "Colour the cloth by how far it stretches (of its limit) or how hard it presses on the body (M)",
         );
     editor.fit_map = map;
+}
+
+/// The statistics overlay: a plain first line, the engineering detail
+/// under it one click away.
+fn overlay(ui: &mut Ui, painter: &egui::Painter, rect: Rect, editor: &mut Editor) {
+    let Some(frame) = editor.timeline.shown() else { return };
+    let mut lines = vec![summary_line(&frame.record, editor.scene.fps, editor.simulation_rate())];
+    if let (Some(error), Some(reference)) = (editor.shown_error(), &editor.reference) {
+        let mm = error * reference.diagonal_m * 1e3;
+        lines.push(format!("error against the reference {:.2} % ({mm:.1} mm RMS)", error * 100.0));
+    }
+    if editor.show_details {
+        lines.extend(overlay_lines(&frame.record));
+    }
+    let font = egui::FontId::monospace(12.0);
+    let galley = painter.layout_no_wrap(lines.join("\n"), font, Color32::from_gray(235));
+    let at = rect.min + Vec2::splat(8.0);
+    let size = galley.size();
+    painter.rect_filled(Rect::from_min_size(at, size).expand(4.0), 3.0, Color32::from_black_alpha(150));
+    painter.galley(at, galley, Color32::WHITE);
+    let button = Rect::from_min_size(at + Vec2::new(size.x + 10.0, -2.0), Vec2::new(56.0, 18.0));
+    let label = if editor.show_details { "less" } else { "details" };
+    let tip = "Timings, solver iterations, contacts, strain, rollbacks";
+    if ui.put(button, egui::Button::new(label).small()).on_hover_text(tip).clicked() {
+        editor.show_details = !editor.show_details;
+    }
 }
 
 /// Pin the current result as A; then show A, B or both.
@@ -450,26 +476,37 @@ fn fabric(ui: &mut Ui, editor: &mut Editor) {
 
 fn collision(ui: &mut Ui, editor: &mut Editor) {
     let g = editor.garment;
-    ui.label("The selected garment's contact, live (the same values as the fabric panel's):");
-    if let Some(garment) = editor.scene.garments.get_mut(g)
-        && let Some(parameter) = fabric_panel::contact_sliders(ui, &mut garment.fabric)
-    {
-        editor.fabric_changed(parameter);
-    }
-    ui.separator();
-    ui.label("These restart the simulation:");
+    ui.label("Friction and thickness are the fabric's: the Fabric panel sets them, live.");
     let mut settings = editor.scene_file().collision.clone();
     let mut self_collision = editor.scene_file().garments.get(g).is_some_and(|s| s.self_collision);
     let mut changed = false;
-    changed |=
-        ui.checkbox(&mut self_collision, "Self-collision").on_hover_text("Keep the garment out of itself").changed();
+    let tip = "Keep the garment out of itself (folds, layers); restarts the simulation";
+    changed |= ui.checkbox(&mut self_collision, "Self-collision").on_hover_text(tip).changed();
+    let advanced = egui::CollapsingHeader::new("Advanced").id_salt("collision advanced");
+    advanced.show(ui, |ui| {
+        ui.label("The contact solver's settings (PAPER §4); changing one restarts the simulation.");
+        changed |= solver_knobs(ui, &mut settings);
+    });
+    if changed {
+        editor.edit_scene("collision settings", move |file| {
+            file.collision = settings;
+            if let Some(spec) = file.garments.get_mut(g) {
+                spec.self_collision = self_collision;
+            }
+        });
+    }
+}
+
+/// The collision pipeline's settings; true when one changed.
+fn solver_knobs(ui: &mut Ui, settings: &mut crate::scene::file::CollisionSettings) -> bool {
+    let mut changed = false;
     egui::Grid::new("collision settings").num_columns(2).show(ui, |ui| {
         let mut row = |ui: &mut Ui, name: &str, tip: &str, widget: &mut dyn FnMut(&mut Ui) -> egui::Response| {
             let label = ui.label(name).on_hover_text(tip);
             changed |= widget(ui).labelled_by(label.id).changed();
             ui.end_row();
         };
-        let tip = "Detect → respond passes per step before impact zones take over";
+        let tip = "Detect-and-respond passes per step before impact zones take over";
         row(ui, "Passes", tip, &mut |ui| ui.add(egui::DragValue::new(&mut settings.passes).range(1..=50)));
         let tip = "Share of the contacts' shortfall a pass must remove for another pass to run (0: off)";
         row(ui, "Pass progress", tip, &mut |ui| ui.add(egui::Slider::new(&mut settings.pass_progress, 0.0..=0.9)));
@@ -500,14 +537,7 @@ fn collision(ui: &mut Ui, editor: &mut Editor) {
             ui.add(egui::DragValue::new(&mut settings.zone_rounds).range(1..=200))
         });
     });
-    if changed {
-        editor.edit_scene("collision settings", move |file| {
-            file.collision = settings;
-            if let Some(spec) = file.garments.get_mut(g) {
-                spec.self_collision = self_collision;
-            }
-        });
-    }
+    changed
 }
 
 fn accuracy(ui: &mut Ui, editor: &mut Editor) {
@@ -673,14 +703,14 @@ fn playback_buttons(ui: &mut Ui, editor: &mut Editor) {
     if ui.button("|<").on_hover_text("First frame (Home)").clicked() {
         t.seek(0);
     }
-    if ui.button("<").on_hover_text("Previous frame (←)").clicked() {
+    if ui.button("<").on_hover_text("Previous frame (left arrow)").clicked() {
         t.step(-1);
     }
     let label = if t.playing { "Pause" } else { "Play" };
     if ui.button(label).on_hover_text("Play the simulated frames (Space)").clicked() {
         t.playing = !t.playing;
     }
-    if ui.button(">").on_hover_text("Next frame (→)").clicked() {
+    if ui.button(">").on_hover_text("Next frame (right arrow)").clicked() {
         t.step(1);
     }
     if ui.button(">|").on_hover_text("Newest frame (End)").clicked() {
@@ -740,19 +770,7 @@ fn viewport_ui(ui: &mut Ui, editor: &mut Editor, drawn: bool) -> [u32; 2] {
     if response.double_clicked() {
         editor.camera.frame_all();
     }
-    if let Some(frame) = editor.timeline.shown() {
-        let mut lines = overlay_lines(&frame.record);
-        if let (Some(error), Some(reference)) = (editor.shown_error(), &editor.reference) {
-            let mm = error * reference.diagonal_m * 1e3;
-            lines.push(format!("error vs reference {:.2} % ({mm:.1} mm RMS)", error * 100.0));
-        }
-        let text = lines.join("\n");
-        let font = egui::FontId::monospace(12.0);
-        let galley = painter.layout_no_wrap(text, font, Color32::from_gray(235));
-        let at = rect.min + Vec2::splat(8.0);
-        painter.rect_filled(Rect::from_min_size(at, galley.size()).expand(4.0), 3.0, Color32::from_black_alpha(150));
-        painter.galley(at, galley, Color32::WHITE);
-    }
+    overlay(ui, &painter, rect, editor);
     map_legend(&painter, rect, editor);
     compare_labels(&painter, rect, editor);
     editor.viewport_pixels

@@ -3,6 +3,25 @@
 
 use crate::bake::FrameRecord;
 
+/// The overlay's first line, in plain words: the frame and its time, how
+/// fast the simulation runs (frames of animation per second of wall time,
+/// while it runs), the intersections and the largest stretch of the cloth.
+pub fn summary_line(record: &FrameRecord, fps: f64, live_rate: Option<f64>) -> String {
+    let mut parts = vec![format!("frame {} · {:.2} s", record.frame, record.frame as f64 / fps)];
+    if let Some(rate) = live_rate {
+        parts.push(format!("simulating {rate:.0} frames/s"));
+    }
+    let count = record.intersections.pairs();
+    parts.push(match count {
+        1 => "1 intersection".to_owned(),
+        n => format!("{n} intersections"),
+    });
+    if record.frame > 0 {
+        parts.push(format!("stretch {:.2} %", record.max_free_strain.min(record.max_strain) * 100.0));
+    }
+    parts.join(" · ")
+}
+
 /// The overlay's lines for the frame `record` (frame 0, the initial state,
 /// has only the checker's count).
 pub fn overlay_lines(record: &FrameRecord) -> Vec<String> {
@@ -81,6 +100,15 @@ mod tests {
         assert!(lines.last().unwrap().starts_with("intersections 3 (cloth-cloth 2, cloth-body 1)"));
         record.long_steps_rejected = 1;
         assert!(overlay_lines(&record).contains(&"1 long steps too far off, taken again shorter".to_owned()));
+    }
+
+    #[test]
+    fn the_first_line_speaks_plainly() {
+        let record = FrameRecord { frame: 45, max_strain: 0.137, max_free_strain: 0.0102, ..Default::default() };
+        let line = summary_line(&record, 30.0, Some(28.4));
+        assert_eq!(line, "frame 45 · 1.50 s · simulating 28 frames/s · 0 intersections · stretch 1.02 %");
+        let first = FrameRecord::default();
+        assert_eq!(summary_line(&first, 30.0, None), "frame 0 · 0.00 s · 0 intersections");
     }
 
     /// How fast the cloth still moves, so a designer sees when the drape

@@ -8,6 +8,9 @@ use std::time::Instant;
 use super::{Editor, RunState};
 use crate::app::worker::{Command, Event, Frame, Settings, Stop, live_frames};
 
+/// The simulation's rate is measured over this much wall time, s.
+const RATE_WINDOW_S: f64 = 2.0;
+
 /// What a frame on the timeline is, for its colour in the cache bar.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FrameKind {
@@ -80,6 +83,22 @@ impl Editor {
         }
     }
 
+    /// Frames of animation simulated per second of wall time over the last
+    /// [`RATE_WINDOW_S`], while the simulation runs.
+    pub fn simulation_rate(&self) -> Option<f64> {
+        let (first, last) = (self.arrivals.front()?, self.arrivals.back()?);
+        let span = last.duration_since(*first).as_secs_f64();
+        (self.run != RunState::Idle && span > 0.0).then(|| (self.arrivals.len() - 1) as f64 / span)
+    }
+
+    fn note_arrival(&mut self) {
+        let now = Instant::now();
+        self.arrivals.push_back(now);
+        while self.arrivals.front().is_some_and(|t| now.duration_since(*t).as_secs_f64() > RATE_WINDOW_S) {
+            self.arrivals.pop_front();
+        }
+    }
+
     /// The settings the next frame is simulated with.
     pub fn current_settings(&self) -> Settings {
         Settings::of(&self.scene)
@@ -100,7 +119,10 @@ impl Editor {
     pub(super) fn on_event(&mut self, event: Event) {
         match event {
             Event::Restarted(frame) => self.timeline.restart(frame),
-            Event::Frame(frame) => self.timeline.push(frame),
+            Event::Frame(frame) => {
+                self.note_arrival();
+                self.timeline.push(frame);
+            }
             Event::BakeProgress { done, total } => {
                 let started = match self.run {
                     RunState::Baking { started, .. } => started,
