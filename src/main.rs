@@ -40,6 +40,24 @@ struct Cli {
 /// The built-in default scene: the skirt on the walking body.
 const DEFAULT_SCENE: &str = "assets/scenes/skirt_walk.toml";
 
+/// The editor's quality, as the live benchmark names it.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum LiveQuality {
+    Preview,
+    Balanced,
+    Final,
+}
+
+impl LiveQuality {
+    fn quality(self) -> drape::app::Quality {
+        match self {
+            LiveQuality::Preview => drape::app::Quality::Preview,
+            LiveQuality::Balanced => drape::app::Quality::Balanced,
+            LiveQuality::Final => drape::app::Quality::Final,
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Open the editor (a window): tune the fabric while the cloth simulates,
@@ -55,6 +73,10 @@ enum Command {
         /// scene's range).
         #[arg(long, hide = true, default_value_t = 0)]
         screenshot_after: usize,
+        /// With --screenshot: simulate at this quality, and print how many
+        /// frames per second came while the window drew (the live benchmark).
+        #[arg(long, hide = true)]
+        screenshot_quality: Option<LiveQuality>,
     },
     /// Simulate a scene without a window and write its frames: OBJ sequence, PC2
     /// point caches, summary.json.
@@ -351,10 +373,17 @@ fn main() -> ExitCode {
         eprintln!("error: cannot start {threads} threads: {e}");
         return ExitCode::from(2);
     }
-    let command = cli.command.unwrap_or(Command::Edit { scene: None, screenshot: None, screenshot_after: 0 });
+    let command = cli.command.unwrap_or(Command::Edit {
+        scene: None,
+        screenshot: None,
+        screenshot_after: 0,
+        screenshot_quality: None,
+    });
     let result = match command {
-        Command::Edit { scene, screenshot, screenshot_after } => {
-            let screenshot = screenshot.map(|path| drape::app::Screenshot { path, after_frames: screenshot_after });
+        Command::Edit { scene, screenshot, screenshot_after, screenshot_quality } => {
+            let quality = screenshot_quality.map(LiveQuality::quality);
+            let screenshot =
+                screenshot.map(|path| drape::app::Screenshot { path, after_frames: screenshot_after, quality });
             run_edit(scene, screenshot)
         }
         Command::Bake { scene, out, frames, resume, export } => {

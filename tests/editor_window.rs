@@ -1,6 +1,6 @@
 //! Smoke test of the real editor window: `drape` opens on the default scene
 //! under a virtual X display (Xvfb, installed by the test command),
-//! simulates a few frames live, and writes the window's image to
+//! simulates a second of the walk live, and writes the window's image to
 //! `target/smoke/editor.png` (kept as a CI artifact).
 
 use std::path::Path;
@@ -17,7 +17,7 @@ fn the_editor_window_opens_on_the_default_scene_and_simulates() {
     let output = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1600x1000x24", env!("CARGO_BIN_EXE_drape"), "edit", "--screenshot"])
         .arg(&shot)
-        .args(["--screenshot-after", "4"])
+        .args(["--screenshot-after", "30"])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .expect("xvfb-run is missing: tools/test installs it (apt-get install xvfb)");
@@ -41,4 +41,79 @@ fn the_editor_window_opens_on_the_default_scene_and_simulates() {
         .filter(|&(x, y)| image.get_pixel(x, y)[0] > 200)
         .count();
     assert!(overlay_text_pixels > 200, "no statistics overlay ({overlay_text_pixels} bright pixels)");
+}
+
+/// A process killed when dropped (the test's Xvfb and editor).
+struct Child(std::process::Child);
+
+impl Drop for Child {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// CPU time the process `pid` has used so far, seconds (user + system, from
+/// `/proc/PID/stat`).
+fn cpu_time_s(pid: u32) -> f64 {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
+    // The fields after the command name, which is in parentheses.
+    let fields: Vec<&str> = stat[stat.rfind(')').unwrap() + 2..].split_whitespace().collect();
+    let ticks: f64 = fields[11].parse::<f64>().unwrap() + fields[12].parse::<f64>().unwrap();
+    // SAFETY: sysconf only reads a system constant.
+    ticks / unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64
+}
+
+/// A free X display number and its Xvfb, up once its socket exists.
+fn virtual_display() -> (String, Child) {
+    let number = (90..200).find(|n| !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()).unwrap();
+    let display = format!(":{number}");
+    let xvfb = Command::new("Xvfb")
+        .args([display.as_str(), "-screen", "0", "1600x1000x24", "-nolisten", "tcp"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("Xvfb is missing: tools/test installs it (apt-get install xvfb)");
+    let socket = format!("/tmp/.X11-unix/X{number}");
+    for _ in 0..200 {
+        if Path::new(&socket).exists() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    (display, Child(xvfb))
+}
+
+/// Idle (nothing simulating, playing or moving), the editor sleeps: under
+/// 2 % of a core over 5 s once the window has settled.
+#[test]
+fn the_idle_editor_uses_under_two_percent_of_a_core() {
+    let (display, _xvfb) = virtual_display();
+    let editor = Command::new(env!("CARGO_BIN_EXE_drape"))
+        .arg("edit")
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let editor = Child(editor);
+    let pid = editor.0.id();
+    // Settled: the window is up and drawn when a whole second passes with
+    // (almost) no CPU time; at most a minute.
+    let second = std::time::Duration::from_secs(1);
+    let mut before = cpu_time_s(pid);
+    for _ in 0..60 {
+        std::thread::sleep(second);
+        let now = cpu_time_s(pid);
+        let settled = now - before < 0.02 && now > 0.5;
+        before = now;
+        if settled {
+            break;
+        }
+    }
+    let start = (std::time::Instant::now(), cpu_time_s(pid));
+    std::thread::sleep(5 * second);
+    let used = cpu_time_s(pid) - start.1;
+    let share = used / start.0.elapsed().as_secs_f64();
+    assert!(share < 0.02, "the idle editor used {:.1} % of a core", 100.0 * share);
 }

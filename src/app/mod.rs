@@ -19,6 +19,7 @@ pub mod job;
 pub mod menu;
 pub mod orbit;
 pub mod panels;
+pub mod rasteriser;
 pub mod reference;
 pub mod shortcuts;
 pub mod stats;
@@ -28,7 +29,7 @@ pub mod viewport;
 pub mod window;
 pub mod worker;
 
-pub use editor::Editor;
+pub use editor::{Editor, Quality};
 pub use window::{Screenshot, run};
 
 /// Why the editor could not open or keep its window.

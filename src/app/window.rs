@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use winit::application::ApplicationHandler;
 use winit::event::{StartCause, WindowEvent};
@@ -13,8 +13,9 @@ use winit::window::{Window, WindowId};
 
 use super::AppError;
 use super::browse::dropped;
-use super::editor::Editor;
+use super::editor::{Editor, Quality, RunState};
 use super::panels::editor_ui;
+use super::rasteriser::RasteriserPriority;
 use super::viewport::Viewport;
 use crate::render::Gpu;
 use crate::render::gpu::supported_backends;
@@ -25,6 +26,9 @@ use crate::stage::offscreen::write_png;
 /// Redraws per second while the simulation runs or the timeline plays.
 const ANIMATION_HZ: f64 = 30.0;
 
+/// Window frames that compile shaders and upload the scene first.
+const WARM_UP_FRAMES: u32 = 3;
+
 /// A window image to take, then close (smoke tests, documentation).
 #[derive(Clone, Debug)]
 pub struct Screenshot {
@@ -33,6 +37,8 @@ pub struct Screenshot {
     /// Simulate this many frames live first (0: the initial state); at most
     /// the scene's range, where the simulation stops.
     pub after_frames: usize,
+    /// The quality to simulate at (default: the scene's own, Balanced).
+    pub quality: Option<Quality>,
 }
 
 impl Screenshot {
@@ -48,7 +54,11 @@ pub fn run(scene: Scene, screenshot: Option<Screenshot>) -> Result<(), AppError>
     let event_loop = EventLoop::new().map_err(|e| AppError::Window(e.to_string()))?;
     event_loop.set_control_flow(ControlFlow::Wait);
     let display = event_loop.owned_display_handle();
-    let mut app = App { editor: Some(Editor::new(scene)), display, open: None, failure: None, screenshot };
+    let mut editor = Editor::new(scene);
+    if let Some(quality) = screenshot.as_ref().and_then(|shot| shot.quality) {
+        editor.set_quality(quality);
+    }
+    let mut app = App { editor: Some(editor), display, open: None, failure: None, screenshot, live: LiveRate::Waiting };
     event_loop.run_app(&mut app).map_err(|e| AppError::Window(e.to_string()))?;
     match app.failure {
         Some(failure) => Err(failure),
@@ -62,6 +72,8 @@ struct App {
     open: Option<Open>,
     failure: Option<AppError>,
     screenshot: Option<Screenshot>,
+    /// For a screenshot after live frames: how fast they came.
+    live: LiveRate,
 }
 
 /// The window and everything drawn into it.
@@ -79,6 +91,10 @@ struct Open {
     frames_drawn: u32,
     /// The window's title as last set.
     title: String,
+    /// When egui wants its next repaint (none: only on input).
+    egui_repaint_at: Option<Instant>,
+    /// The software rasteriser's priority (see [`RasteriserPriority`]).
+    rasteriser: RasteriserPriority,
     /// The last frame's UI, kept for a screenshot.
     last_paint: Option<(Vec<egui::ClippedPrimitive>, egui_wgpu::ScreenDescriptor)>,
 }
@@ -101,6 +117,9 @@ impl ApplicationHandler for App {
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
         let Some(open) = &mut self.open else { return };
         let response = open.egui.on_window_event(&open.window, &event);
+        // egui asks for a repaint after every redraw; what it really needs
+        // next comes with its output (`Open::egui_repaint_at`).
+        let repaint = response.repaint && event != WindowEvent::RedrawRequested;
         match event {
             WindowEvent::CloseRequested if open.editor.request_quit() => event_loop.exit(),
             // Unsaved changes: the question shows on the next frame.
@@ -112,6 +131,9 @@ impl ApplicationHandler for App {
                     self.failure = Some(e);
                     event_loop.exit();
                     return;
+                }
+                if let Some(shot) = &self.screenshot {
+                    self.live.observe(&open.editor, open.frames_drawn, shot.frames_wanted(open.editor.timeline.range));
                 }
                 if let Some(shot) = self.screenshot.take_if(|shot| open.ready_for(shot)) {
                     if let Err(e) = open.screenshot(&shot.path) {
@@ -125,7 +147,7 @@ impl ApplicationHandler for App {
             }
             _ => {}
         }
-        if response.repaint {
+        if repaint {
             open.window.request_redraw();
         }
     }
@@ -133,21 +155,57 @@ impl ApplicationHandler for App {
     /// While something moves by itself, or the viewport has a still image to
     /// draw anti-aliased, wake up at most [`ANIMATION_HZ`] times a second to
     /// redraw: a busy redraw loop would take a core from the simulation (and
-    /// lavapipe draws on the CPU).
+    /// lavapipe draws on the CPU). Otherwise sleep until an event, or until
+    /// egui's next timed repaint (a tooltip's delay, a fold's animation).
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
         let redraw = |o: &Open| o.editor.is_animating() || o.viewport.needs_refinement();
         let animating = self.open.as_ref().is_some_and(redraw) || self.screenshot.is_some();
-        if animating {
-            let next = Instant::now() + std::time::Duration::from_secs_f64(1.0 / ANIMATION_HZ);
-            event_loop.set_control_flow(ControlFlow::WaitUntil(next));
-        } else {
-            event_loop.set_control_flow(ControlFlow::Wait);
-        }
+        let animation = animating.then(|| Instant::now() + Duration::from_secs_f64(1.0 / ANIMATION_HZ));
+        let egui = self.open.as_ref().and_then(|o| o.egui_repaint_at);
+        let wake = match (animation, egui) {
+            (Some(a), Some(e)) => Some(a.min(e)),
+            (a, e) => a.or(e),
+        };
+        event_loop.set_control_flow(wake.map_or(ControlFlow::Wait, ControlFlow::WaitUntil));
     }
 
     fn new_events(&mut self, _: &ActiveEventLoop, cause: StartCause) {
         if let (StartCause::ResumeTimeReached { .. }, Some(open)) = (cause, &self.open) {
             open.window.request_redraw();
+        }
+    }
+}
+
+/// How fast frames come while the window draws, measured once for a
+/// screenshot after live frames (the live benchmark, `tools/bench-live`).
+enum LiveRate {
+    /// No simulated frame yet.
+    Waiting,
+    /// Since the first frame seen: when, which frame, window frames drawn then.
+    Measuring { since: Instant, frame: usize, drawn: u32 },
+    /// Reported.
+    Done,
+}
+
+impl LiveRate {
+    /// Starts at the first simulated frame and prints the rate once the
+    /// `wanted` frame has come: frames of animation per second of wall time,
+    /// and window redraws per second.
+    fn observe(&mut self, editor: &Editor, drawn_now: u32, wanted: usize) {
+        let last = editor.timeline.last();
+        match *self {
+            LiveRate::Waiting if last > 0 => {
+                *self = LiveRate::Measuring { since: Instant::now(), frame: last, drawn: drawn_now };
+            }
+            LiveRate::Measuring { since, frame, drawn } if last >= wanted && last > frame => {
+                let seconds = since.elapsed().as_secs_f64();
+                let rate = (last - frame) as f64 / seconds;
+                let redraws = f64::from(drawn_now - drawn) / seconds;
+                let (frames, quality) = (last - frame, editor.quality.label());
+                println!("live: {frames} frames in {seconds:.2} s, {rate:.1} frames/s, window drawn {redraws:.1} times/s ({quality})");
+                *self = LiveRate::Done;
+            }
+            _ => {}
         }
     }
 }
@@ -168,6 +226,10 @@ impl Open {
         }))
         .map_err(|e| AppError::Graphics(e.to_string()))?;
         let gpu = Gpu::open(&adapter).map_err(|e| AppError::Graphics(e.to_string()))?;
+        let mut rasteriser = RasteriserPriority::default();
+        if gpu.software {
+            rasteriser.yield_to_the_simulation();
+        }
         let size = window.inner_size();
         let mut config = surface
             .get_default_config(&adapter, size.width.max(1), size.height.max(1))
@@ -195,6 +257,8 @@ impl Open {
             last_frame: Instant::now(),
             frames_drawn: 0,
             title: String::new(),
+            egui_repaint_at: None,
+            rasteriser,
             last_paint: None,
         })
     }
@@ -202,18 +266,24 @@ impl Open {
     /// Whether the screenshot can be taken: the scene shown and, when asked,
     /// the frames simulated (the simulation is started on the first call).
     fn ready_for(&mut self, shot: &Screenshot) -> bool {
-        if self.frames_drawn < 3 || self.editor.is_loading() || self.editor.timeline.is_empty() {
+        if self.frames_drawn < WARM_UP_FRAMES || self.editor.is_loading() || self.editor.timeline.is_empty() {
             return false;
         }
-        let simulated = self.editor.timeline.last();
-        let wanted = shot.frames_wanted(self.editor.timeline.range);
-        if simulated < wanted && self.editor.run == super::editor::RunState::Idle {
-            self.editor.simulate();
+        let idle = self.editor.run == RunState::Idle;
+        if self.editor.timeline.last() < shot.frames_wanted(self.editor.timeline.range) {
+            if idle {
+                self.editor.simulate();
+            }
+            return false;
         }
-        // The frame drawn must show the newest frame's pose, anti-aliased
-        // once the simulation has stopped.
-        let finished = self.editor.is_animating() || !self.viewport.needs_refinement();
-        simulated >= wanted && self.editor.timeline.current() == simulated && finished
+        // Then the still view a designer sees after pausing: the newest
+        // frame, anti-aliased.
+        if !idle {
+            self.editor.pause();
+            return false;
+        }
+        let newest = self.editor.timeline.current() == self.editor.timeline.last();
+        newest && !self.editor.is_animating() && !self.viewport.needs_refinement()
     }
 
     fn resize(&mut self, width: u32, height: u32) {
@@ -226,8 +296,9 @@ impl Open {
 
     /// One frame of the editor.
     fn frame(&mut self) -> Result<(), AppError> {
+        let started = Instant::now();
         let elapsed = self.last_frame.elapsed().as_secs_f64();
-        self.last_frame = Instant::now();
+        self.last_frame = started;
         self.editor.update(elapsed);
         self.viewport.render(&mut self.editor, self.viewport_size, &mut self.painter);
         let input = self.egui.take_egui_input(&self.window);
@@ -243,6 +314,8 @@ impl Open {
             self.title = title;
         }
         self.egui.handle_platform_output(&self.window, output.platform_output);
+        let delay = output.viewport_output.get(&egui::ViewportId::ROOT).map(|v| v.repaint_delay);
+        self.egui_repaint_at = delay.and_then(|d| Instant::now().checked_add(d));
         let jobs = context.tessellate(output.shapes, output.pixels_per_point);
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(frame) | wgpu::CurrentSurfaceTexture::Suboptimal(frame) => frame,
@@ -273,6 +346,10 @@ impl Open {
             self.painter.free_texture(id);
         }
         self.frames_drawn += 1;
+        // The first frames compile the shaders: not a sign of starvation.
+        if self.frames_drawn > WARM_UP_FRAMES {
+            self.rasteriser.frame_took(started.elapsed());
+        }
         Ok(())
     }
 
@@ -340,7 +417,7 @@ mod tests {
 
     #[test]
     fn a_screenshot_after_more_frames_than_the_scene_has_waits_for_its_last() {
-        let shot = Screenshot { path: PathBuf::from("shot.png"), after_frames: 120 };
+        let shot = Screenshot { path: PathBuf::from("shot.png"), after_frames: 120, quality: None };
         assert_eq!(shot.frames_wanted(114), 114);
         assert_eq!(shot.frames_wanted(300), 120);
     }

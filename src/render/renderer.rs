@@ -122,14 +122,24 @@ struct GpuMesh {
     visible: bool,
 }
 
+/// Which PBR pipeline: the full one, or the quick one of a moving view on a
+/// software rasteriser.
+#[derive(Clone, Copy)]
+enum PbrPass {
+    /// [`SAMPLE_COUNT`] samples per pixel, soft (PCSS) shadows.
+    Full,
+    /// One sample, hard-edged shadows (one bilinear comparison tap).
+    Quick,
+}
+
 /// Pipelines, the shadow map and the uploaded meshes.
 pub struct Renderer {
     gpu: Gpu,
     /// The PBR pass into [`SAMPLE_COUNT`]-sample targets.
     pbr: wgpu::RenderPipeline,
-    /// The PBR pass into one-sample targets (a software rasteriser's viewport
-    /// while it moves).
-    pbr_single: wgpu::RenderPipeline,
+    /// The quick PBR pass into one-sample targets, with hard-edged shadows
+    /// (a software rasteriser's viewport while it moves).
+    pbr_quick: wgpu::RenderPipeline,
     shadow: wgpu::RenderPipeline,
     object_layout: wgpu::BindGroupLayout,
     frame_uniforms: wgpu::Buffer,
@@ -261,10 +271,10 @@ impl Renderer {
             entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX)],
         });
 
-        let (pbr, pbr_single, shadow) = gpu.validated(|device| {
-            let pbr = Self::pbr_pipeline(device, &frame_layout, &object_layout, SAMPLE_COUNT);
-            let pbr_single = Self::pbr_pipeline(device, &frame_layout, &object_layout, 1);
-            (pbr, pbr_single, Self::shadow_pipeline(device, &shadow_layout, &object_layout))
+        let (pbr, pbr_quick, shadow) = gpu.validated(|device| {
+            let pbr = Self::pbr_pipeline(device, &frame_layout, &object_layout, PbrPass::Full);
+            let pbr_quick = Self::pbr_pipeline(device, &frame_layout, &object_layout, PbrPass::Quick);
+            (pbr, pbr_quick, Self::shadow_pipeline(device, &shadow_layout, &object_layout))
         })?;
 
         let shadow_map = device
@@ -336,7 +346,7 @@ impl Renderer {
         Ok(Renderer {
             gpu: gpu.clone(),
             pbr,
-            pbr_single,
+            pbr_quick,
             shadow,
             object_layout,
             frame_uniforms,
@@ -354,10 +364,15 @@ impl Renderer {
         device: &wgpu::Device,
         frame: &wgpu::BindGroupLayout,
         object: &wgpu::BindGroupLayout,
-        samples: u32,
+        kind: PbrPass,
     ) -> wgpu::RenderPipeline {
         let (module, layout) =
             module_and_layout(device, "pbr", include_str!("../../shaders/pbr.wgsl"), [frame, object]);
+        let (samples, soft_shadows) = match kind {
+            PbrPass::Full => (SAMPLE_COUNT, 1.0),
+            PbrPass::Quick => (1, 0.0),
+        };
+        let constants = [("SOFT_SHADOWS", soft_shadows)];
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("pbr"),
             layout: Some(&layout),
@@ -380,7 +395,7 @@ impl Renderer {
             fragment: Some(wgpu::FragmentState {
                 module: &module,
                 entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
                 targets: &[Some(wgpu::ColorTargetState {
                     format: COLOR_FORMAT,
                     blend: None,
@@ -548,7 +563,7 @@ impl Renderer {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(if resolve.is_some() { &self.pbr } else { &self.pbr_single });
+        pass.set_pipeline(if resolve.is_some() { &self.pbr } else { &self.pbr_quick });
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
         for mesh in self.meshes.iter().filter(|m| m.visible) {
             draw(&mut pass, mesh);
