@@ -1000,3 +1000,30 @@ fn difference(a: &image::RgbaImage, b: &image::RgbaImage) -> (f64, f64) {
     }
     (sum / count as f64, changed as f64 / count as f64)
 }
+
+/// File ▸ Examples lists the demos apart from the hard cases, each with its
+/// description on hover; choosing one opens it (the title follows).
+#[test]
+fn the_examples_menu_lists_demos_apart_from_hard_cases_and_opens_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Editor::new(small_scene(dir.path())));
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::Button, "File").click();
+    h.run_steps(2);
+    h.get_by_label("Examples").click();
+    h.run_steps(2);
+    let demos = h.get_by_label("Demos").rect().min.y;
+    let hard = h.get_by_label("Hard cases (stress tests)").rect().min.y;
+    let skirt = h.get_by_label("skirt_walk").rect().min.y;
+    let twist = h.get_by_label("twist").rect().min.y;
+    assert!(demos < skirt && skirt < hard && hard < twist, "demos first, then the hard cases");
+    h.get_by_label("drape_sphere").hover();
+    h.run_steps(60);
+    h.get_by_label_contains("dropped from 1 m onto a sphere of radius 0.3 m");
+    h.get_by_label("drape_sphere").click();
+    h.run_steps(2);
+    assert!(h.state().is_loading(), "opening");
+    h.state_mut().finish_loading();
+    h.run_steps(2);
+    assert_eq!(h.state().title(), "drape — drape_sphere", "{:?}", h.state().messages);
+}

@@ -208,6 +208,8 @@ pub struct Editor {
     pub pending: Option<Pending>,
     /// The Help ▸ Keyboard window is open.
     pub show_keyboard: bool,
+    /// The example scenes, read when File ▸ Examples first opens.
+    pub examples: Option<Vec<super::examples::Example>>,
     /// The frames of the last bake that completed, kept while another runs.
     last_bake: Option<Vec<Frame>>,
     /// The fit map colouring the cloth, if any.
@@ -287,6 +289,7 @@ impl Editor {
             quit: false,
             pending: None,
             show_keyboard: false,
+            examples: None,
             last_bake: None,
             fit_map: None,
             images: ImageChoices::default(),

@@ -4,8 +4,10 @@
 use egui::Ui;
 
 use super::editor::{Action, Editor, RunState};
+use super::examples::{examples_folder, examples_in};
 use super::orbit::ViewSide;
 use super::shortcuts::{keyboard_table, keys_of};
+use crate::scene::file::SceneKind;
 use crate::stage::fit_map::FitMap;
 
 /// Draws the menu bar.
@@ -37,11 +39,34 @@ fn item(ui: &mut Ui, editor: &mut Editor, label: &str, action: Action) {
 fn file_menu(ui: &mut Ui, editor: &mut Editor) {
     item(ui, editor, "New", Action::New);
     item(ui, editor, "Open…", Action::Open);
+    ui.menu_button("Examples", |ui| examples_menu(ui, editor));
     item(ui, editor, "Save", Action::Save);
     item(ui, editor, "Save as…", Action::SaveAs);
     item(ui, editor, "Reload from disk", Action::Reload);
     ui.separator();
     item(ui, editor, "Quit", Action::Quit);
+}
+
+/// The shipped scenes: demos first, then the hard cases; the description
+/// on hover. Opening one asks first when there are unsaved changes.
+fn examples_menu(ui: &mut Ui, editor: &mut Editor) {
+    let examples = editor.examples.get_or_insert_with(|| examples_in(&examples_folder())).clone();
+    let mut chosen = None;
+    for (kind, heading) in [(SceneKind::Demo, "Demos"), (SceneKind::HardCase, "Hard cases (stress tests)")] {
+        ui.label(egui::RichText::new(heading).weak());
+        for example in examples.iter().filter(|e| e.kind == kind) {
+            if ui.button(&example.name).on_hover_text(&example.description).clicked() {
+                chosen = Some(example.path.clone());
+            }
+        }
+        if kind == SceneKind::Demo {
+            ui.separator();
+        }
+    }
+    if let Some(path) = chosen {
+        editor.open_scene(path);
+        ui.close();
+    }
 }
 
 fn edit_menu(ui: &mut Ui, editor: &mut Editor) {

@@ -13,6 +13,7 @@
 pub mod blit;
 pub mod browse;
 pub mod editor;
+pub mod examples;
 pub mod export;
 pub mod fabric_panel;
 pub mod job;

@@ -202,7 +202,9 @@ impl LiveRate {
                 let rate = (last - frame) as f64 / seconds;
                 let redraws = f64::from(drawn_now - drawn) / seconds;
                 let (frames, quality) = (last - frame, editor.quality.label());
-                println!("live: {frames} frames in {seconds:.2} s, {rate:.1} frames/s, window drawn {redraws:.1} times/s ({quality})");
+                println!(
+                    "live: {frames} frames in {seconds:.2} s, {rate:.1} frames/s, window drawn {redraws:.1} times/s ({quality})"
+                );
                 *self = LiveRate::Done;
             }
             _ => {}

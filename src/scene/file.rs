@@ -4,6 +4,7 @@
 //!
 //! ```toml
 //! description = "A cotton square dropped on a sphere."
+//! kind = "demo"                           # or "hard-case": listed apart in the editor
 //! [time]
 //! fps = 30.0
 //! duration_s = 2.0
@@ -45,6 +46,10 @@ pub struct SceneFile {
     /// What the scene is for, in a sentence.
     #[serde(default)]
     pub description: String,
+    /// A demonstration (default) or a hard case (a stress test of the
+    /// solver, listed apart in the editor).
+    #[serde(default, skip_serializing_if = "SceneKind::is_demo")]
+    pub kind: SceneKind,
     /// Frame rate and length.
     pub time: TimeSettings,
     /// Linear solver and stepping.
@@ -68,6 +73,24 @@ pub struct SceneFile {
     /// Where the editor exports this scene's frames.
     #[serde(default, skip_serializing_if = "ExportSpec::is_default")]
     pub export: ExportSpec,
+}
+
+/// What a scene is for: `kind = "demo"` (the default) or `"hard-case"`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SceneKind {
+    /// Shows what drape does (a garment on a body, a drape).
+    #[default]
+    Demo,
+    /// A stress test of stability or robustness (SCENES.md's hard cases).
+    HardCase,
+}
+
+impl SceneKind {
+    /// Whether this is the default kind (not written to saved files).
+    pub fn is_demo(&self) -> bool {
+        *self == SceneKind::Demo
+    }
 }
 
 /// An animated body: a deforming collider that garments can attach to.
