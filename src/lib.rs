@@ -16,6 +16,7 @@ pub mod bench;
 pub mod body;
 pub mod export;
 pub mod fabric_lab;
+pub mod farm;
 pub mod io;
 pub mod mesh;
 pub mod metrics;

@@ -128,6 +128,19 @@ enum Command {
         #[arg(long)]
         scene: Option<PathBuf>,
     },
+    /// Write a sweep's variants (one resolved scene each, with its key) and
+    /// manifest into a sweep folder, for `drape farm run`.
+    Sweep {
+        /// The sweep file (TOML), e.g. assets/sweeps/fabrics.toml.
+        spec: PathBuf,
+        /// The sweep folder (created; variants whose key did not change keep their bakes).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Bake a sweep's variants on a farm (Slurm job arrays) or here, and
+    /// gather what they gave.
+    #[command(subcommand)]
+    Farm(FarmCommand),
     /// Validate a scene and its assets, and print what they contain.
     Check {
         /// Scene file (TOML).
@@ -243,6 +256,61 @@ enum Command {
 }
 
 /// The virtual fabric lab.
+#[derive(Subcommand)]
+enum FarmCommand {
+    /// Run the variants not yet finished: `--slurm` submits a job array
+    /// (arguments after `--` go to sbatch: partition, account, time limit),
+    /// `--local` runs them here.
+    Run {
+        /// The sweep folder (from `drape sweep`).
+        dir: PathBuf,
+        /// Submit an sbatch job array (one task per variant).
+        #[arg(long, conflicts_with = "local", required_unless_present = "local")]
+        slurm: bool,
+        /// Run the tasks on this machine.
+        #[arg(long)]
+        local: bool,
+        /// With --local: tasks at a time (the cores are shared between them).
+        #[arg(short = 'j', long, default_value_t = 1)]
+        jobs: usize,
+        /// Run the variants whose simulation stopped again too.
+        #[arg(long)]
+        retry_failed: bool,
+        /// Extra sbatch arguments (after `--`).
+        #[arg(last = true)]
+        sbatch: Vec<String>,
+    },
+    /// Bake one variant (what each farm task runs): resumes a started bake,
+    /// does nothing for a finished one.
+    Task {
+        /// The sweep folder.
+        dir: PathBuf,
+        /// The variant's index (the array task id).
+        index: usize,
+    },
+    /// Each variant's state: finished, failed (with why), started, pending,
+    /// or Slurm's state of its task.
+    Status {
+        /// The sweep folder.
+        dir: PathBuf,
+    },
+    /// One table of every variant's summary (report.csv, report.md) and a
+    /// contact sheet of one frame of each (contact_sheet.png).
+    Collect {
+        /// The sweep folder.
+        dir: PathBuf,
+        /// The frame on the contact sheet (default: the last).
+        #[arg(long)]
+        frame: Option<usize>,
+        /// Light rig of the contact sheet.
+        #[arg(long, default_value = "studio")]
+        light: String,
+        /// Where to write (default: the sweep folder).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
 #[derive(Subcommand)]
 enum FabricCommand {
     /// Run the virtual cantilever (ASTM D1388) and Cusick drape tests on
@@ -437,6 +505,16 @@ fn main() -> ExitCode {
             run_fabric_fit(&measured, &base, name.as_deref(), across, &out)
         }
         Command::Body { body, motion, stack } => cli::body::run_body(&body, motion.as_deref(), stack.as_deref()),
+        Command::Sweep { spec, out } => cli::farm::run_sweep(&spec, &out),
+        Command::Farm(FarmCommand::Run { dir, slurm, jobs, retry_failed, sbatch, .. }) => {
+            let runner = if slurm { cli::farm::Runner::Slurm(sbatch) } else { cli::farm::Runner::Local(jobs) };
+            cli::farm::run_farm(&dir, &runner, retry_failed)
+        }
+        Command::Farm(FarmCommand::Task { dir, index }) => cli::farm::run_task(&dir, index),
+        Command::Farm(FarmCommand::Status { dir }) => cli::farm::run_status(&dir),
+        Command::Farm(FarmCommand::Collect { dir, frame, light, out }) => {
+            cli::farm::run_collect(&dir, frame.unwrap_or(usize::MAX), &light, out.as_deref())
+        }
         Command::ImportMotion { body, motion, stack, fps, cycle, out } => {
             cli::body::run_import_motion(&body, motion.as_deref(), stack.as_deref(), fps, cycle, &out)
         }
@@ -504,7 +582,7 @@ fn run_check(path: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
-fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Result<(), Failure> {
+pub(crate) fn run_bake(path: &Path, out: &Path, frames: Option<usize>, resume: bool) -> Result<(), Failure> {
     let scene = load_scene(path)?;
     let frames = frames.map_or(scene.frame_count, |n| n.min(scene.frame_count));
     let cancel = Arc::new(AtomicBool::new(false));

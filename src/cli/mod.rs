@@ -3,3 +3,4 @@
 
 pub mod body;
 pub mod export;
+pub mod farm;

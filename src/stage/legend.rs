@@ -1,6 +1,7 @@
-//! A fit map's legend drawn into an image (exported PNG frames): the ramp
-//! with its title and the values at its start, middle and end, in the lower
-//! left corner, as the editor's viewport shows it.
+//! Text drawn into images: a fit map's legend (exported PNG frames: the
+//! ramp with its title and the values at its start, middle and end, in the
+//! lower left corner, as the editor's viewport shows it), and a contact
+//! sheet tile's caption.
 
 use ab_glyph::{FontRef, PxScale, PxScaleFont, ScaleFont, point};
 use image::{Rgba, RgbaImage};
@@ -37,6 +38,16 @@ pub fn draw_legend(image: &mut RgbaImage, title: &str, labels: &[String; 3]) {
         let x = left + bar_w * k as f32 / 2.0 - width * k as f32 / 2.0;
         write(image, &font, label, (x, below));
     }
+}
+
+/// Writes `text` on a dark band along the bottom of `image`, `height`
+/// pixels tall (a tile's label on a contact sheet).
+pub fn draw_caption(image: &mut RgbaImage, text: &str, height: f32) {
+    let Ok(font) = FontRef::try_from_slice(epaint_default_fonts::UBUNTU_LIGHT) else { return };
+    let top = image.height() as f32 - height;
+    fill(image, (0.0, top), (image.width() as f32, height), |_| Rgba([0, 0, 0, 170]));
+    let font = PxScaleFont { font, scale: PxScale::from(height * 0.65) };
+    write(image, &font, text, (height * 0.3, top + height * 0.15));
 }
 
 /// Blends `colour(x)` over the rectangle at `at` of `size`, pixels.
@@ -96,5 +107,16 @@ mod tests {
         let lettered = image.pixels().filter(box_grey).count();
         assert!(lettered > 100, "the labels are written: {lettered} light pixels");
         assert_eq!(at(1000.0, 100.0)[..3], [128, 128, 128], "the rest of the image is untouched");
+    }
+
+    #[test]
+    fn a_caption_darkens_the_bottom_band_and_writes_on_it() {
+        let mut image = RgbaImage::from_pixel(320, 240, Rgba([128, 128, 128, 255]));
+        draw_caption(&mut image, "preset silk · friction 0.2", 24.0);
+        assert_eq!(image.get_pixel(310, 230).0[..3], [43, 43, 43], "the band: black at 2/3 over grey 128");
+        let lettered =
+            (216..240).flat_map(|y| (0..320).map(move |x| (x, y))).filter(|&(x, y)| image.get_pixel(x, y)[0] > 150);
+        assert!(lettered.count() > 50, "the text");
+        assert_eq!(image.get_pixel(100, 100).0[..3], [128, 128, 128], "above the band, untouched");
     }
 }
