@@ -257,3 +257,26 @@ fn slurm_runs_the_sweep_as_drape_bake_does_and_a_requeued_task_resumes_to_the_sa
     );
     assert_same_as_a_plain_bake(&long, 0);
 }
+
+#[test]
+fn a_sweep_that_asks_for_the_reference_reports_each_variants_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = small_sweep(dir.path(), &[0.3], 6);
+    let text = std::fs::read_to_string(&sweep).unwrap().replace("frames = 6\n", "frames = 6\nreference = true\n");
+    std::fs::write(&sweep, text).unwrap();
+    let out = dir.path().join("out");
+    ok(drape(&["sweep", &sweep.to_string_lossy(), "--out", &out.to_string_lossy()]));
+    ok(drape(&["farm", "run", &out.to_string_lossy(), "--local", "-j", "2"]));
+    let report = ok(drape(&["farm", "collect", &out.to_string_lossy()]));
+    let csv = std::fs::read_to_string(out.join("report.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let column = header.iter().position(|h| *h == "reference_error").unwrap();
+    for row in csv.lines().skip(1) {
+        let error: f64 = row.split(',').nth(column).unwrap().parse().unwrap_or_else(|_| panic!("no error in {row}"));
+        assert!(
+            error > 0.0 && error < 0.05,
+            "a 2-step bake is within 5 % of the diagonal of its 16x reference: {error}"
+        );
+    }
+    assert!(report.contains("error vs reference"), "{report}");
+}

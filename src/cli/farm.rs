@@ -6,12 +6,15 @@ use std::process::Command;
 
 use drape::farm::FarmError;
 use drape::farm::layout::{BAKE, Entry, FAILED, KEY, PARTIAL, VariantState, read_manifest, state, write_sweep};
+use drape::farm::reference::{ERROR_FILE, measure};
 use drape::farm::report::{contact_sheet, csv_text, markdown, table};
 use drape::farm::sweep::Sweep;
 use drape::io::atomic::write_file;
 use drape::render::Gpu;
 use drape::render::lights::LightRig;
+use drape::scene::Scene;
 use drape::stage::offscreen::write_png;
+use std::sync::atomic::AtomicBool;
 
 use crate::{Failure, input, run_bake};
 
@@ -182,7 +185,9 @@ pub fn run_task(dir: &Path, index: usize) -> Result<(), Failure> {
     let partial = folder.join(PARTIAL);
     let resume = partial.join(".resume").is_dir();
     println!("variant {index} ({}): {}", entry.label, if resume { "resuming" } else { "baking" });
-    match run_bake(&folder.join("scene.toml"), &partial, entry.frames, resume) {
+    let baked = run_bake(&folder.join("scene.toml"), &partial, entry.frames, resume);
+    let measured = baked.and_then(|()| if entry.reference { measure_error(&folder, &partial) } else { Ok(()) });
+    match measured {
         Ok(()) => finish(&folder, &partial, &entry.key).map_err(input),
         // Stopped by the scheduler (SIGTERM) or Ctrl-C: the next task resumes.
         Err(Failure::Cancelled(reason)) => Err(Failure::Cancelled(reason)),
@@ -195,6 +200,16 @@ pub fn run_task(dir: &Path, index: usize) -> Result<(), Failure> {
         }
         Err(other) => Err(other),
     }
+}
+
+/// Runs the variant's reference and writes its error into the bake.
+fn measure_error(folder: &Path, partial: &Path) -> Result<(), Failure> {
+    let scene = Scene::load(&folder.join("scene.toml")).map_err(input)?;
+    let cancel = AtomicBool::new(false);
+    println!("measuring the error against the 16x reference");
+    let error = measure(&scene, partial, &cancel).map_err(Failure::Internal)?;
+    let text = serde_json::to_string_pretty(&error).map_err(|e| Failure::Internal(e.to_string()))?;
+    write_file(&partial.join(ERROR_FILE), |out| std::io::Write::write_all(out, text.as_bytes())).map_err(input)
 }
 
 /// Marks a complete bake with its key and moves it into place.

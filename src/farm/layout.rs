@@ -30,6 +30,8 @@ pub struct Entry {
     pub key: String,
     /// Frames to bake (empty: the scene's range).
     pub frames: Option<usize>,
+    /// Whether the task also measures the error against the reference.
+    pub reference: bool,
     /// Short label, e.g. `preset silk · friction 0.2`.
     pub label: String,
     /// The values it sets, `key=value` joined by `; `.
@@ -77,13 +79,14 @@ pub fn write_sweep(sweep: &Sweep, dir: &Path) -> Result<Vec<Entry>, FarmError> {
     for (index, variant) in sweep.variants.iter().enumerate() {
         let bad = |problem: String| FarmError::Variant { index, label: variant.label(), problem };
         let scene = resolve(&sweep.base, &variant.settings).map_err(bad)?;
-        let key = key(&scene, sweep.frames).map_err(|e| bad(e.to_string()))?;
+        let key = key(&scene, sweep.frames, sweep.reference).map_err(|e| bad(e.to_string()))?;
         let settings: Vec<String> = variant.settings.iter().map(|(k, v)| format!("{k}={}", plain(v))).collect();
         let entry = Entry {
             index,
             folder: format!("v{index:04}"),
             key,
             frames: sweep.frames,
+            reference: sweep.reference,
             label: variant.label(),
             settings: settings.join("; "),
         };

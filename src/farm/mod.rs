@@ -11,12 +11,14 @@
 //! DIR/sweep.toml          the sweep file, as read
 //! DIR/v0000/scene.toml    the variant's resolved scene (asset paths absolute)
 //! DIR/v0000/key           its key
-//! DIR/v0000/bake/         its bake folder, once complete (with `key` inside)
+//! DIR/v0000/bake/         its bake folder, once complete (with `key` inside, and
+//!                         `reference_error.json` when the sweep asks for the error)
 //! DIR/v0000/bake.partial/ a bake in progress (resumed by the next task)
 //! DIR/v0000/failed.txt    why its simulation stopped, if it did
 //! ```
 
 pub mod layout;
+pub mod reference;
 pub mod report;
 pub mod sweep;
 pub mod variant;

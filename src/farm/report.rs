@@ -8,6 +8,7 @@ use image::{Rgba, RgbaImage};
 
 use super::FarmError;
 use super::layout::{BAKE, Entry, VariantState, state};
+use super::reference::{ERROR_FILE, ReferenceError};
 use crate::bake::summary::BakeSummary;
 use crate::render::lights::LightRig;
 use crate::render::{Gpu, RenderError};
@@ -37,6 +38,8 @@ pub struct Row {
     pub intersections: Option<u64>,
     /// Steps taken again.
     pub rollbacks: Option<u64>,
+    /// Mean error against the 16× reference (relative RMS), when measured.
+    pub reference_error: Option<f64>,
     /// Why it stopped, if it did.
     pub stopped: String,
 }
@@ -58,6 +61,7 @@ fn row(dir: &Path, entry: &Entry) -> Result<Row, FarmError> {
         max_free_strain: None,
         intersections: None,
         rollbacks: None,
+        reference_error: None,
         stopped: match &now {
             VariantState::Failed(reason) => reason.clone(),
             _ => String::new(),
@@ -74,6 +78,9 @@ fn row(dir: &Path, entry: &Entry) -> Result<Row, FarmError> {
         row.max_free_strain = Some(summary.max_free_strain);
         row.intersections = Some(summary.intersections_total as u64);
         row.rollbacks = Some(summary.rollbacks as u64);
+        let measured = std::fs::read_to_string(entry.dir(dir).join(BAKE).join(ERROR_FILE)).ok();
+        row.reference_error =
+            measured.and_then(|text| serde_json::from_str::<ReferenceError>(&text).ok()).map(|e| e.mean);
     }
     Ok(row)
 }
@@ -90,14 +97,14 @@ pub fn csv_text(rows: &[Row]) -> Result<Vec<u8>, csv::Error> {
 /// The table as Markdown.
 pub fn markdown(rows: &[Row]) -> String {
     let mut text = String::from(
-        "| # | variant | state | frames | ms/frame | max strain | max free strain | intersections | rollbacks |\n\
-         |---:|---|---|---:|---:|---:|---:|---:|---:|\n",
+        "| # | variant | state | frames | ms/frame | max strain | max free strain | intersections | rollbacks | error vs reference |\n\
+         |---:|---|---|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     let number = |v: Option<f64>, f: &dyn Fn(f64) -> String| v.map_or("-".to_owned(), f);
     for r in rows {
         let state = if r.stopped.is_empty() { r.state.clone() } else { format!("{}: {}", r.state, r.stopped) };
         text += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             r.index,
             r.label,
             state.replace('|', "/"),
@@ -107,6 +114,7 @@ pub fn markdown(rows: &[Row]) -> String {
             number(r.max_free_strain, &|v| format!("{:.2} %", v * 100.0)),
             r.intersections.map_or("-".into(), |v| v.to_string()),
             r.rollbacks.map_or("-".into(), |v| v.to_string()),
+            number(r.reference_error, &|v| format!("{v:.2e}")),
         );
     }
     text

@@ -4,6 +4,7 @@
 //! ```toml
 //! base = "../scenes/small_drape.toml"     # relative to the sweep file
 //! frames = 10                             # optional: bake only the first frames
+//! reference = true                        # optional: each variant's error against its 16× reference
 //! mode = "product"                        # every combination of the axes (default), or "list"
 //!
 //! [[axis]]
@@ -22,6 +23,8 @@
 //!
 //! With `mode = "list"`, `[[variant]]` tables name each variant's values
 //! instead: `set = { "garment.0.preset" = "silk", "solver.steps_per_frame" = 4 }`.
+//! A value that is a file (`garment.0.mesh.obj`, `body.0.file`) is relative
+//! to the base scene, as in the scene file itself.
 
 use std::path::{Path, PathBuf};
 
@@ -89,6 +92,9 @@ pub struct SweepFile {
     pub base: PathBuf,
     /// Bake only the first frames of each variant (default: the scene's range).
     pub frames: Option<usize>,
+    /// Also run each variant's 16× reference and report the error against it.
+    #[serde(default)]
+    pub reference: bool,
     /// Product of the axes, or a list of variants.
     #[serde(default)]
     pub mode: Mode,
@@ -140,6 +146,8 @@ pub struct Sweep {
     pub base: PathBuf,
     /// Frames to bake per variant, if fewer than the scene's.
     pub frames: Option<usize>,
+    /// Whether each variant's error against its reference is measured.
+    pub reference: bool,
     /// Every variant, in order.
     pub variants: Vec<Variant>,
     /// Resources of one task.
@@ -177,7 +185,14 @@ impl Sweep {
             return Err(bad("frames = 0: bake at least one frame".into()));
         }
         let base = path.parent().unwrap_or(Path::new("")).join(&file.base);
-        Ok(Sweep { path: path.to_owned(), base, frames: file.frames, variants, slurm: file.slurm })
+        Ok(Sweep {
+            path: path.to_owned(),
+            base,
+            frames: file.frames,
+            reference: file.reference,
+            variants,
+            slurm: file.slurm,
+        })
     }
 }
 

@@ -110,11 +110,12 @@ fn is_preset_file(preset: &str) -> bool {
 }
 
 /// The variant's key: SHA-256 (hex) of drape's version, the frames baked,
-/// the scene text as written and every asset's path as written and bytes.
-/// The same sweep gives the same keys on any machine with the same files.
-pub fn key(variant: &ResolvedVariant, frames: Option<usize>) -> Result<String, std::io::Error> {
+/// whether the reference is measured, the scene text as written and every
+/// asset's path as written and bytes. The same sweep gives the same keys on
+/// any machine with the same files.
+pub fn key(variant: &ResolvedVariant, frames: Option<usize>, reference: bool) -> Result<String, std::io::Error> {
     let mut hash = Sha256::new();
-    hash.update(format!("drape {}\nframes {frames:?}\n", env!("CARGO_PKG_VERSION")));
+    hash.update(format!("drape {}\nframes {frames:?}\nreference {reference}\n", env!("CARGO_PKG_VERSION")));
     hash.update(variant.portable_text.as_bytes());
     for (written, absolute) in &variant.assets {
         let bytes = std::fs::read(absolute)?;
