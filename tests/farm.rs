@@ -244,9 +244,8 @@ fn slurm_runs_the_sweep_as_drape_bake_does_and_a_requeued_task_resumes_to_the_sa
     ok(drape(&["sweep", &long_sweep(dir.path()).to_string_lossy(), "--out", &long.to_string_lossy()]));
     ok(drape(&["farm", "run", &long.to_string_lossy(), "--slurm"]));
     let job = std::fs::read_to_string(long.join("jobs.txt")).unwrap().trim().to_owned();
-    let checkpoint = long.join("v0000/bake.partial/.resume");
-    wait_for("the first checkpoint", Duration::from_secs(120), || checkpoint.is_dir());
-    std::thread::sleep(Duration::from_millis(1500));
+    let checkpoint = long.join("v0000/bake.partial/.resume/checkpoint.bin");
+    wait_for("the first checkpoint", Duration::from_secs(120), || checkpoint.is_file());
     let requeue = Command::new("scontrol").args(["requeue", &format!("{job}_0")]).output().unwrap();
     assert!(requeue.status.success(), "{}", String::from_utf8_lossy(&requeue.stderr));
     wait_for("the requeued task", Duration::from_secs(300), || finished_count(&long) == 1);

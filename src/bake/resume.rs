@@ -176,6 +176,12 @@ impl ResumeLog {
         bake_dir.join(RESUME_DIR)
     }
 
+    /// Whether the bake in `bake_dir` has a checkpoint to resume from (a bake
+    /// stopped before its first has none: it starts again).
+    pub fn has_checkpoint(bake_dir: &Path) -> bool {
+        Self::folder(bake_dir).join(CHECKPOINT).is_file()
+    }
+
     /// Starts the working files of a new bake in `bake_dir`, dropping any
     /// left by an earlier one.
     pub fn create(bake_dir: &Path) -> Result<Self, WriteError> {

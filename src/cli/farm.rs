@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use drape::bake::resume::ResumeLog;
 use drape::farm::FarmError;
 use drape::farm::layout::{BAKE, Entry, FAILED, KEY, PARTIAL, VariantState, read_manifest, state, write_sweep};
 use drape::farm::reference::{ERROR_FILE, measure};
@@ -183,7 +184,7 @@ pub fn run_task(dir: &Path, index: usize) -> Result<(), Failure> {
     }
     let folder = entry.dir(dir);
     let partial = folder.join(PARTIAL);
-    let resume = partial.join(".resume").is_dir();
+    let resume = ResumeLog::has_checkpoint(&partial);
     println!("variant {index} ({}): {}", entry.label, if resume { "resuming" } else { "baking" });
     let baked = run_bake(&folder.join("scene.toml"), &partial, entry.frames, resume);
     let measured = baked.and_then(|()| if entry.reference { measure_error(&folder, &partial) } else { Ok(()) });
