@@ -24,3 +24,4 @@ pub mod render;
 pub mod scene;
 pub mod sim;
 pub mod stage;
+pub mod untrusted;

@@ -747,7 +747,7 @@ fn run_check_bake(dir: &Path, scene: Option<&Path>, json: Option<&Path>) -> Resu
             None
         }
     };
-    let checks = check_sequence(dir, scene.as_ref(), |c, _| {
+    let checks = check_sequence(dir, scene.as_ref().map(Scene::obstacles), |c, _| {
         let i = &c.intersections;
         if i.pairs() + i.penetrating_vertices > 0 {
             println!(

@@ -7,7 +7,7 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
-use drape::io::untrusted::{Format, read};
+use drape::untrusted::{Format, read};
 use proptest::prelude::*;
 
 fn corpus(name: &str) -> Vec<(PathBuf, Vec<u8>)> {

@@ -1,7 +1,7 @@
 //! Any bytes read as a preset file: Ok or a clear error, never a panic.
 #![no_main]
 
-use drape::io::untrusted::{Format, read};
+use drape::untrusted::{Format, read};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -163,7 +163,7 @@ fn blender_run(
     // Strain from the frames the checker reads: frame 0 (flat) is the rest.
     let edges = structural_edges(resolution);
     let (mut rest, mut max_strain, mut wrong_size) = (None, 0.0_f64, None);
-    let checks = check_sequence(out, Some(scene), |check, mesh| {
+    let checks = check_sequence(out, Some(scene.obstacles()), |check, mesh| {
         if mesh.positions.len() != resolution * resolution {
             wrong_size.get_or_insert_with(|| (check.file.clone(), mesh.positions.len()));
             return;

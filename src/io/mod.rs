@@ -6,4 +6,3 @@ pub mod mdd;
 pub mod motion_cache;
 pub mod obj;
 pub mod pc2;
-pub mod untrusted;

@@ -12,7 +12,20 @@ use serde::{Deserialize, Serialize};
 
 use super::intersections::{Checker, Intersections};
 use crate::io::obj::{FrameMesh, ObjError, read_frame};
-use crate::scene::Scene;
+use crate::sim::colliders::Collider;
+use crate::sim::collision::obstacles::MeshCollider;
+
+/// What a sequence is checked against: the scene's colliders, and its frame
+/// rate (to place moving colliders at each frame's time).
+#[derive(Clone, Copy, Debug)]
+pub struct Obstacles<'a> {
+    /// The analytic colliders.
+    pub colliders: &'a [Collider],
+    /// The mesh colliders (bodies, props).
+    pub mesh_colliders: &'a [MeshCollider],
+    /// Frames per second of the sequence.
+    pub fps: f64,
+}
 
 /// Why a sequence could not be checked.
 #[derive(Debug, thiserror::Error)]
@@ -78,11 +91,11 @@ pub fn frame_files(dir: &Path) -> Result<Vec<(u64, PathBuf)>, SequenceError> {
     Ok(frames)
 }
 
-/// Checks every frame of the sequence in `dir` (against `scene`'s colliders,
-/// if given), calling `on_frame` with each check and the frame it read.
+/// Checks every frame of the sequence in `dir` (against `obstacles`, if
+/// given), calling `on_frame` with each check and the frame it read.
 pub fn check_sequence(
     dir: &Path,
-    scene: Option<&Scene>,
+    obstacles: Option<Obstacles>,
     mut on_frame: impl FnMut(&FrameCheck, &FrameMesh),
 ) -> Result<Vec<FrameCheck>, SequenceError> {
     let files = frame_files(dir)?;
@@ -90,11 +103,11 @@ pub fn check_sequence(
     let mut checks = Vec::with_capacity(files.len());
     for (frame, path) in files {
         let mesh = read_frame(&path)?;
-        let checker = match scene {
-            Some(s) => Checker::new(mesh.triangles.clone(), &s.colliders, &s.mesh_colliders),
+        let checker = match obstacles {
+            Some(o) => Checker::new(mesh.triangles.clone(), o.colliders, o.mesh_colliders),
             None => Checker::new(mesh.triangles.clone(), &[], &[]),
         };
-        let time = scene.map_or(0.0, |s| (frame - first) as f64 / s.fps);
+        let time = obstacles.map_or(0.0, |o| (frame - first) as f64 / o.fps);
         let check = FrameCheck {
             frame,
             file: path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),

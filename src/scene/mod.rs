@@ -209,6 +209,15 @@ impl Scene {
         Resolver { base_dir, origin }.scene(parse_file(text, origin)?, name)
     }
 
+    /// Its colliders and frame rate, for checking a sequence of its frames.
+    pub fn obstacles(&self) -> crate::metrics::sequence::Obstacles<'_> {
+        crate::metrics::sequence::Obstacles {
+            colliders: &self.colliders,
+            mesh_colliders: &self.mesh_colliders,
+            fps: self.fps,
+        }
+    }
+
     /// Duration of one frame, s.
     pub fn frame_duration(&self) -> f64 {
         1.0 / self.fps
