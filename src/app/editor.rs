@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::Receiver;
 use std::time::Instant;
 
-use super::browse::Browse;
+use super::dialog::Browse;
 use super::job::Job;
 use super::orbit::CameraControl;
 use super::reference::Reference;

@@ -12,6 +12,7 @@
 
 pub mod blit;
 pub mod browse;
+pub mod dialog;
 pub mod editor;
 pub mod examples;
 pub mod export;

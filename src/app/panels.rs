@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use egui::{Align2, Color32, PointerButton, Rect, Sense, Ui, Vec2};
 
-use super::browse::Purpose;
+use super::dialog::Purpose;
 use super::editor::{Compare, Editor, FrameKind, Pending, Quality, RunState};
 use super::export::ExportKind;
 use super::fabric_panel;

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use super::{Editor, Pending, RunState};
-use crate::app::browse::Purpose;
+use crate::app::dialog::Purpose;
 use crate::app::orbit::ViewSide;
 use crate::stage::fit_map::FitMap;
 

@@ -42,7 +42,7 @@ impl Editor {
     /// Keeps the export folder in the scene file (relative to it), so the
     /// next export of this scene goes there too.
     fn remember_export_folder(&mut self, dir: &std::path::Path) {
-        let relative = crate::app::browse::relative_to(dir, &self.base_dir());
+        let relative = crate::app::dialog::relative_to(dir, &self.base_dir());
         if self.scene.file.export.folder.as_ref() != Some(&relative) {
             self.scene.file.export.folder = Some(relative);
             self.commit("export folder");

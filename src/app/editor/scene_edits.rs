@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::channel;
 
 use super::{Editor, Pending, Quality, RunState, finest_time_step};
-use crate::app::browse::{Browse, Purpose};
+use crate::app::dialog::{Browse, Purpose};
 use crate::app::timeline::Timeline;
 use crate::app::worker::Command;
 use crate::io::atomic::write_file;
