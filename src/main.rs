@@ -922,7 +922,7 @@ fn run_accuracy(
     if let Some(dir) = out
         && !sweeps.is_empty()
     {
-        bench::accuracy::write_results(dir, &sweeps).map_err(input)?;
+        bench::report::write_accuracy(dir, &sweeps).map_err(input)?;
         println!("wrote {}", dir.display());
     }
     match failures.is_empty() {
@@ -1013,7 +1013,7 @@ fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> 
             println!("{}", bench::scaling_table(&results));
         }
         if let Some(dir) = out {
-            bench::write_results(dir, &results).map_err(input)?;
+            bench::report::write_results(dir, &results).map_err(input)?;
         }
     }
     if matches!(suite, bench::Suite::Accuracy | bench::Suite::All) {
@@ -1053,7 +1053,7 @@ fn run_soak(frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {
         bench::soak::run(&scene, steps, |line| eprintln!("{line}")).map_err(|e| Failure::Internal(e.to_string()))?;
     println!("{}", report.markdown());
     if let Some(dir) = out {
-        report.write(dir).map_err(input)?;
+        bench::report::write_soak(&report, dir).map_err(input)?;
     }
     Ok(())
 }

@@ -2,7 +2,8 @@
 //! metric measures what it says.
 
 use drape::bench::accuracy::{self, ErrorMeasure, Reference};
-use drape::bench::{BenchResult, measure, standard_scene, write_results};
+use drape::bench::report::{write_accuracy, write_results};
+use drape::bench::{BenchResult, measure, standard_scene};
 use drape::scene::Scene;
 use drape::scene::file::MeshSpec;
 
@@ -111,7 +112,7 @@ fn the_speed_against_error_chart_is_drawn() {
         },
     ];
     let dir = tempfile::tempdir().unwrap();
-    accuracy::write_results(dir.path(), &[("tiny".into(), points)]).unwrap();
+    write_accuracy(dir.path(), &[("tiny".into(), points)]).unwrap();
     let png = image::open(dir.path().join("speed_against_error.png")).unwrap().to_luma8();
     assert!(png.pixels().filter(|p| p.0[0] < 128).count() > 1000);
     assert!(std::fs::read_to_string(dir.path().join("accuracy.md")).unwrap().contains("speed_against_error.png"));

@@ -18,10 +18,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::Vector3;
 
-use super::plots::PlotError;
 use crate::bake::summary::BakeSummary;
 use crate::bake::{self, BakeError};
-use crate::io::atomic::{WriteError, write_file};
+
 use crate::scene::Scene;
 
 /// The reference uses this many times the scene's steps per frame.
@@ -320,20 +319,6 @@ pub fn markdown_table(points: &[AccuracyPoint]) -> String {
 
 /// One scene's sweep.
 pub type SceneSweep = (String, Vec<AccuracyPoint>);
-
-/// Writes `accuracy.csv`, `accuracy.md` (one table per scene) and the
-/// `speed_against_error` chart (one curve per scene, PNG and SVG) into `dir`.
-pub fn write_results(dir: &std::path::Path, sweeps: &[SceneSweep]) -> Result<(), PlotError> {
-    std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
-    write_file(&dir.join("accuracy.csv"), |w| std::io::Write::write_all(w, csv(sweeps).as_bytes()))?;
-    let mut report = String::new();
-    for (scene, points) in sweeps {
-        let _ = writeln!(report, "### {scene}\n\n{}", markdown_table(points));
-    }
-    report += "![speed against error](speed_against_error.png)\n";
-    write_file(&dir.join("accuracy.md"), |w| std::io::Write::write_all(w, report.as_bytes()))?;
-    super::plots::speed_against_error(dir, sweeps)
-}
 
 /// The sweeps as CSV, one row per scene and point.
 pub fn csv(sweeps: &[SceneSweep]) -> String {

@@ -6,6 +6,7 @@ pub mod accuracy;
 pub mod memory;
 pub mod peers;
 pub mod plots;
+pub mod report;
 pub mod soak;
 
 use std::fmt::Write as _;
@@ -15,7 +16,7 @@ use std::sync::atomic::AtomicBool;
 use self::accuracy::{ErrorMeasure, Reference, RunErrors};
 use crate::bake::summary::BakeSummary;
 use crate::bake::{self, BakeError};
-use crate::io::atomic::{WriteError, write_file};
+
 use crate::scene::file::MeshSpec;
 use crate::scene::{Scene, SceneError};
 use crate::sim::inextensibility::StrainLimiting;
@@ -486,23 +487,6 @@ pub fn scaling_table(results: &[BenchResult]) -> String {
         }
     }
     out
-}
-
-/// Writes `bench.csv`, `bench.md` and the charts (`strain_over_time` and
-/// `time_per_stage`, PNG and SVG) into `dir`.
-pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), plots::PlotError> {
-    std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
-    write_file(&dir.join("bench.csv"), |w| std::io::Write::write_all(w, csv(results).as_bytes()))?;
-    let tables = format!(
-        "{}\n{}\n{}\n{}\n![strain over time](strain_over_time.png)\n\n![time per stage](time_per_stage.png)\n",
-        markdown_table(results),
-        collision_table(results),
-        constraints_table(results),
-        scaling_table(results)
-    );
-    write_file(&dir.join("bench.md"), |w| std::io::Write::write_all(w, tables.as_bytes()))?;
-    plots::strain_over_time(dir, results)?;
-    plots::time_per_stage(dir, results)
 }
 
 #[cfg(test)]

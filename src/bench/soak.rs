@@ -8,16 +8,15 @@
 //! swing cancels out and only a trend remains.
 
 use std::fmt::Write as _;
-use std::path::Path;
+
 use std::sync::atomic::AtomicBool;
 
 use nalgebra::Vector3;
 
 use super::BenchError;
-use super::plots::PlotError;
 use crate::bake::summary::median;
 use crate::bake::{self, FrameRecord};
-use crate::io::atomic::{WriteError, write_file};
+
 use crate::scene::Scene;
 use crate::sim::Simulator;
 
@@ -125,15 +124,6 @@ impl SoakReport {
             );
         }
         out
-    }
-
-    /// Writes `soak.md`, `soak.csv` and the chart `soak.png` / `.svg` into `dir`.
-    pub fn write(&self, dir: &Path) -> Result<(), PlotError> {
-        std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
-        let (md, csv) = (self.markdown(), self.csv());
-        write_file(&dir.join("soak.md"), |w| std::io::Write::write_all(w, md.as_bytes()))?;
-        write_file(&dir.join("soak.csv"), |w| std::io::Write::write_all(w, csv.as_bytes()))?;
-        super::plots::soak_over_time(dir, self)
     }
 }
 
