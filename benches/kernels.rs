@@ -23,12 +23,11 @@ use drape::sim::Simulator;
 use drape::sim::cholesky::LaggedCholesky;
 use drape::sim::collision::bvh::{Box3, SweptBvh};
 use drape::sim::collision::ccd::{self, Path};
+use drape::sim::constraint::Constraint;
 use drape::sim::implicit::{
     AssemblyInput, ParticleCoefficients, SpringCoefficients, SystemBuffers, SystemLayout, assemble, evaluate_springs,
 };
-use drape::sim::pcg::{
-    self, Constraint, FilteredSystem, PcgSettings, PcgWorkspace, PreconditionerKind, Preconditioning,
-};
+use drape::sim::pcg::{self, FilteredSystem, PcgSettings, PcgWorkspace, PreconditionerKind, Preconditioning};
 
 /// Steps before measuring: 0.5 s at the scene's 2 steps per 1/30 s frame, the
 /// cloth settled over the sphere with folds.

@@ -58,9 +58,9 @@ use faer::sparse::linalg::cholesky::{
 };
 use nalgebra::{Matrix3, Vector3};
 
+use super::constraint::Constraint;
 use super::dissection::{Adjacency, nested_dissection};
 use super::parallel;
-use super::pcg::Constraint;
 use super::sparse::{BlockPattern, SystemMatrix};
 use super::supernodal::{Scalar, SupernodalFactor, SupernodalTree};
 

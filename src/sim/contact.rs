@@ -29,7 +29,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::colliders::Collider;
-use super::pcg::Constraint;
+use super::constraint::Constraint;
 
 /// One step's timing, for contact processing.
 #[derive(Clone, Copy, Debug, PartialEq)]

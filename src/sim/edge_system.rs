@@ -43,8 +43,8 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use nalgebra::Vector3;
 
+use super::constraint::Constraint;
 use super::llt::Llt;
-use super::pcg::Constraint;
 
 /// Relative shift of the scaled system's unit diagonal, unitless.
 pub const REGULARIZATION: f64 = 1e-9;

@@ -54,10 +54,10 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::cloth::{Cloth, SpringKind};
+use super::constraint::Constraint;
 use super::edge_system::{EdgeRow, EdgeSystem};
 use super::limit_edges::{EdgeSet, LinearisedEdges, Particles};
 use super::parallel;
-use super::pcg::Constraint;
 
 /// Strain at which the constraints count as met: 0.01 % beyond the limit.
 pub const STRAIN_TOLERANCE: f64 = 1e-4;

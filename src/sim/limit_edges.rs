@@ -18,8 +18,8 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::constraint::Constraint;
 use super::parallel::{CHUNK, PARALLEL_FROM, chunk_count};
-use super::pcg::Constraint;
 
 /// Edges incident to each particle, with the side the particle is on.
 #[derive(Clone, Debug)]

@@ -11,6 +11,7 @@ pub mod cholesky;
 pub mod cloth;
 pub mod colliders;
 pub mod collision;
+pub mod constraint;
 pub mod contact;
 pub mod dissection;
 pub mod edge_system;

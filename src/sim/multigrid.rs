@@ -41,8 +41,8 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, SMatrix, SVector, Vector3, Vector6};
 
+use super::constraint::Constraint;
 use super::parallel::{self, for_each_indexed as each};
-use super::pcg::Constraint;
 use super::sparse::{BlockPattern, SystemMatrix};
 
 /// Stop coarsening at this many nodes; the last level is solved directly.

@@ -15,51 +15,10 @@ use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::cholesky::{CholeskyError, FactorState, LaggedCholesky, RESOLVE_BUDGET, STALE_BUDGET};
+use super::constraint::Constraint;
 use super::multigrid::Multigrid;
 use super::parallel::{self, CHUNK, for_each_indexed as par_each};
 use super::sparse::{BlockPattern, SystemMatrix};
-
-/// What the solve may change in one particle's row.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub enum Constraint {
-    /// All three components.
-    #[default]
-    Free,
-    /// Nothing: the row keeps its starting value.
-    Fixed,
-    /// Everything but the component along this unit normal.
-    Normal(Vector3<f64>),
-}
-
-impl Constraint {
-    /// The projector `S` onto the directions the solve may change.
-    pub fn filter_matrix(&self) -> Matrix3<f64> {
-        match self {
-            Constraint::Free => Matrix3::identity(),
-            Constraint::Fixed => Matrix3::zeros(),
-            Constraint::Normal(n) => Matrix3::identity() - n * n.transpose(),
-        }
-    }
-
-    /// This constraint with motion along unit normal `n` taken away too: a
-    /// free particle keeps the plane across `n`; one already held along
-    /// another normal, or fixed, is fixed.
-    pub fn held_along(self, n: Vector3<f64>) -> Constraint {
-        match self {
-            Constraint::Free => Constraint::Normal(n),
-            Constraint::Normal(_) | Constraint::Fixed => Constraint::Fixed,
-        }
-    }
-
-    /// Projects `v` onto the directions the solve may change.
-    pub fn filter(&self, v: Vector3<f64>) -> Vector3<f64> {
-        match self {
-            Constraint::Free => v,
-            Constraint::Fixed => Vector3::zeros(),
-            Constraint::Normal(n) => v - n * n.dot(&v),
-        }
-    }
-}
 
 /// Which preconditioner a simulation uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

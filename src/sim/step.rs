@@ -43,6 +43,7 @@ use super::collision::{
     ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, Kinematic, ParticleCollision,
     PassState, ResponseStage, carried_displacement,
 };
+use super::constraint::Constraint;
 use super::contact::{ParticleSurface, StepWindow, SurfaceContact, resolve_particle};
 use super::fabric::{Fabric, FabricError};
 use super::implicit::{
@@ -54,7 +55,7 @@ use super::local_error::LocalError;
 use super::motion::Placement;
 use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
-use super::pcg::{Constraint, FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner, SystemChange};
+use super::pcg::{FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner, SystemChange};
 use super::repulsion::Repulsion;
 use super::snapshot::{Snapshot, SnapshotError, from_arrays, to_arrays};
 use super::tuning::Ramp;
