@@ -13,8 +13,9 @@ use super::bvh::{Box3, SweptBvh};
 use super::ccd::{Hit, Path, edge_edge_within, relative_reach, vertex_triangle_within};
 use super::features::Ownership;
 use super::obstacles::Obstacles;
-use super::pair_sort::{PairSorter, merge_sorted};
-use super::partners::Partners;
+use super::pair_sort::merge_sorted;
+use super::partners::moved_pairs;
+use super::queries::parallel_queries;
 use super::response::{Contact, ContactKind};
 use super::slabs::DiagonalSlabs;
 use super::speculate::{MARGIN_IN_THICKNESSES, leaf_margin};
@@ -541,76 +542,6 @@ fn mean(vectors: impl ExactSizeIterator<Item = Vector3<f64>>) -> Vector3<f64> {
     if count == 0 { Vector3::zeros() } else { sum / count as f64 }
 }
 
-/// The overlapping pairs `(low, high)` of cloth triangles with at least one
-/// `moved`, sorted: what [`SweptBvh::self_pairs`] gives, restricted to them
-/// and to the pairs `keep` accepts.
-/// `moved_list` holds the moved triangles in increasing order; the triangles'
-/// real `boxes` come first. With `listed` partners a moved triangle still
-/// inside its leaf reads its list instead of querying the hierarchy (see
-/// [`super::partners`]). The queries' buffers and the sorter's scratch are
-/// kept in `scratch`.
-pub(super) fn moved_pairs(
-    bvh: &SweptBvh,
-    (boxes, moved, moved_list): (&[Box3], &[bool], &[u32]),
-    listed: Option<&Partners>,
-    keep: impl Fn(u32, u32) -> bool + Sync,
-    (chunks, sorter): (&mut Vec<QueryChunk>, &mut PairSorter),
-    out: &mut Vec<(u32, u32)>,
-) {
-    parallel_queries(moved_list, chunks, out, |a, hits, pairs| {
-        let wanted = |h: u32| {
-            h != a && (!moved[h as usize] || a < h) && boxes[h as usize].overlaps(&boxes[a as usize]) && keep(a, h)
-        };
-        let pair = |h: u32| (a.min(h), a.max(h));
-        match listed.filter(|partners| !partners.queried(a)) {
-            Some(partners) => pairs.extend(partners.cloth_of(a).filter(|&h| wanted(h)).map(pair)),
-            None => {
-                bvh.overlapping(&boxes[a as usize], hits);
-                pairs.extend(hits.iter().copied().filter(|&h| wanted(h)).map(pair));
-            }
-        }
-    });
-    sorter.sort(out);
-    // A list may name a partner twice.
-    out.dedup();
-}
-
-/// Moved triangles per parallel task of a broad-phase query.
-const QUERIES_PER_CHUNK: usize = 32;
-
-/// One parallel task's buffers for hierarchy queries.
-#[derive(Clone, Debug, Default)]
-pub(super) struct QueryChunk {
-    hits: Vec<u32>,
-    pairs: Vec<(u32, u32)>,
-}
-
-/// Runs `query` for every triangle of `triangles` in parallel chunks (each
-/// with its own hit and pair buffers, kept in `chunks` from call to call) and
-/// appends the pairs to `out` in the order of `triangles`, whatever the
-/// thread count.
-pub(super) fn parallel_queries(
-    triangles: &[u32],
-    chunks: &mut Vec<QueryChunk>,
-    out: &mut Vec<(u32, u32)>,
-    query: impl Fn(u32, &mut Vec<u32>, &mut Vec<(u32, u32)>) + Sync,
-) {
-    out.clear();
-    let count = triangles.len().div_ceil(QUERIES_PER_CHUNK);
-    if chunks.len() < count {
-        chunks.resize_with(count, QueryChunk::default);
-    }
-    triangles.par_chunks(QUERIES_PER_CHUNK).zip(chunks[..count].par_iter_mut()).for_each(|(triangles, chunk)| {
-        chunk.pairs.clear();
-        for &t in triangles {
-            query(t, &mut chunk.hits, &mut chunk.pairs);
-        }
-    });
-    for chunk in &chunks[..count] {
-        out.extend_from_slice(&chunk.pairs);
-    }
-}
-
 /// What the narrow phase reads of one point, in one cache line: its path
 /// over the step, the distance its contacts keep and whether it moves by
 /// prescription. A test reads four points; from separate arrays of starts,
@@ -1052,27 +983,6 @@ mod tests {
         for &&(a, b) in &adjacent {
             let sharing = Sharing::of(grid.triangles[a], grid.triangles[b]);
             assert!(!cull.may_meet(a, b, sharing), "triangles {a} and {b} pass the coarse test");
-        }
-    }
-
-    /// Pairs `(t, k)` for `k < t % 5`: a query whose output size varies.
-    fn varying_query(t: u32, _hits: &mut Vec<u32>, pairs: &mut Vec<(u32, u32)>) {
-        pairs.extend((0..t % 5).map(|k| (t, k)));
-    }
-
-    #[test]
-    fn parallel_queries_keep_the_order_of_the_triangles_at_any_thread_count() {
-        let triangles: Vec<u32> = (0..500).map(|t| t * 3).collect();
-        let expected: Vec<(u32, u32)> = triangles.iter().flat_map(|&t| (0..t % 5).map(move |k| (t, k))).collect();
-        for threads in [1, 2, 3] {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a thread pool");
-            let mut chunks = Vec::new();
-            let mut out = vec![(9, 9)];
-            pool.install(|| parallel_queries(&triangles, &mut chunks, &mut out, varying_query));
-            assert_eq!(out, expected, "{threads} threads");
-            // Reused buffers, fewer triangles: nothing of the last call is left.
-            pool.install(|| parallel_queries(&triangles[..7], &mut chunks, &mut out, varying_query));
-            assert_eq!(out, expected[..expected.iter().filter(|p| p.0 < 21).count()], "{threads} threads");
         }
     }
 }

@@ -41,6 +41,7 @@ pub mod geometry;
 pub mod obstacles;
 mod pair_sort;
 mod partners;
+mod queries;
 pub mod response;
 pub mod resting;
 mod slabs;
@@ -346,7 +347,7 @@ struct Workspace {
     /// Those triangles, in increasing order.
     moved_list: Vec<u32>,
     /// Buffers of the parallel hierarchy queries of those triangles.
-    query_chunks: Vec<detect::QueryChunk>,
+    query_chunks: Vec<queries::QueryChunk>,
     /// Scratch of the broad phase's pair sorts.
     pair_sorter: PairSorter,
     /// The cloth's boxes and pairs were speculated for this step, and its

@@ -23,7 +23,8 @@
 //! and the bake are too.
 
 use super::bvh::{Box3, SweptBvh};
-use super::detect::{QueryChunk, parallel_queries};
+use super::pair_sort::PairSorter;
+use super::queries::{QueryChunk, parallel_queries};
 
 /// Per cloth triangle, the partners its hierarchy leaf overlaps, for the
 /// step under way.
@@ -154,4 +155,38 @@ fn fill_lists(
         out[fill[owner as usize] as usize] = partner;
         fill[owner as usize] += 1;
     }
+}
+
+/// The overlapping pairs `(low, high)` of cloth triangles with at least one
+/// `moved`, sorted: what [`SweptBvh::self_pairs`] gives, restricted to them
+/// and to the pairs `keep` accepts.
+/// `moved_list` holds the moved triangles in increasing order; the triangles'
+/// real `boxes` come first. With `listed` partners a moved triangle still
+/// inside its leaf reads its list instead of querying the hierarchy (see
+/// [`super::partners`]). The queries' buffers and the sorter's scratch are
+/// kept in `scratch`.
+pub(super) fn moved_pairs(
+    bvh: &SweptBvh,
+    (boxes, moved, moved_list): (&[Box3], &[bool], &[u32]),
+    listed: Option<&Partners>,
+    keep: impl Fn(u32, u32) -> bool + Sync,
+    (chunks, sorter): (&mut Vec<QueryChunk>, &mut PairSorter),
+    out: &mut Vec<(u32, u32)>,
+) {
+    parallel_queries(moved_list, chunks, out, |a, hits, pairs| {
+        let wanted = |h: u32| {
+            h != a && (!moved[h as usize] || a < h) && boxes[h as usize].overlaps(&boxes[a as usize]) && keep(a, h)
+        };
+        let pair = |h: u32| (a.min(h), a.max(h));
+        match listed.filter(|partners| !partners.queried(a)) {
+            Some(partners) => pairs.extend(partners.cloth_of(a).filter(|&h| wanted(h)).map(pair)),
+            None => {
+                bvh.overlapping(&boxes[a as usize], hits);
+                pairs.extend(hits.iter().copied().filter(|&h| wanted(h)).map(pair));
+            }
+        }
+    });
+    sorter.sort(out);
+    // A list may name a partner twice.
+    out.dedup();
 }

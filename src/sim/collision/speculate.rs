@@ -20,8 +20,8 @@ use nalgebra::Vector3;
 
 use super::adjacent;
 use super::bvh::{Box3, SweptBvh};
-use super::detect::moved_pairs;
 use super::pair_sort::merge_sorted;
+use super::partners::moved_pairs;
 use super::{CollisionPipeline, ParticleCollision, Workspace};
 use crate::sim::contact::StepWindow;
 
