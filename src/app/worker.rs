@@ -35,7 +35,7 @@ pub enum Command {
     /// parameters in it). Stops any run.
     Reset(Box<Scene>),
     /// Run frame after frame from the current state, live, until paused
-    /// (past the scene's last frame too, up to [`Worker::live_frames`]).
+    /// (past the scene's last frame too, up to [`live_frames`]).
     Simulate,
     /// Stop a live run or a bake after the frame in progress.
     Pause,

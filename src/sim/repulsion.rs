@@ -32,9 +32,37 @@
 
 use nalgebra::Vector3;
 
-use super::collision::resting::RestingPair;
 use super::implicit::SystemBuffers;
 use super::sparse::BlockPattern;
+
+/// Two features resting on each other at a step's start: both the cloth's,
+/// or one the cloth's and one an obstacle's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RestingPair {
+    /// The four points: vertex then triangle, or first edge then second
+    /// (cloth particles, or obstacle points numbered after them).
+    pub nodes: [u32; 4],
+    /// Whether each point is a cloth particle, which the solve moves; the
+    /// others are obstacle points, which nothing pushes back.
+    pub on_cloth: [bool; 4],
+    /// Weights whose sum `Σ wᵢ xᵢ` is the second feature's closest point to
+    /// the first, seen from the first: `[1, −wa, −wb, −wc]` or
+    /// `[1 − s, s, −(1 − t), −t]`.
+    pub weights: [f64; 4],
+    /// Unit direction from the second feature to the first.
+    pub normal: Vector3<f64>,
+    /// Distance between the features, m.
+    pub distance: f64,
+    /// Distance the pair must keep, m.
+    pub thickness: f64,
+}
+
+impl RestingPair {
+    /// True when both features are the cloth's.
+    pub fn is_self_contact(&self) -> bool {
+        self.on_cloth.iter().all(|&c| c)
+    }
+}
 
 /// What the repulsions of a step add.
 #[derive(Clone, Copy, Debug)]

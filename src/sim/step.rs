@@ -38,7 +38,6 @@ use super::cholesky::CholeskyError;
 use super::cloth::{Cloth, SpringKind};
 use super::colliders::Collider;
 use super::collision::obstacles::{ClothScale, MeshCollider, Obstacles};
-use super::collision::resting::RestingPair;
 use super::collision::{
     ClothState, CollisionMemory, CollisionPipeline, CollisionReport, CollisionSettings, Kinematic, ParticleCollision,
     PassState, ResponseStage, carried_displacement,
@@ -57,6 +56,7 @@ use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
 use super::pcg::{FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner, SystemChange};
 use super::repulsion::Repulsion;
+use super::repulsion::RestingPair;
 use super::snapshot::{Snapshot, SnapshotError, from_arrays, to_arrays};
 use super::tuning::Ramp;
 

@@ -84,7 +84,7 @@ impl Editor {
     }
 
     /// Frames of animation simulated per second of wall time over the last
-    /// [`RATE_WINDOW_S`], while the simulation runs.
+    /// `RATE_WINDOW_S` seconds, while the simulation runs.
     pub fn simulation_rate(&self) -> Option<f64> {
         let (first, last) = (self.arrivals.front()?, self.arrivals.back()?);
         let span = last.duration_since(*first).as_secs_f64();
