@@ -64,7 +64,9 @@ fn imports(module: &str, text: &str, known: &BTreeSet<String>) -> BTreeSet<Strin
         let path: Vec<&str> = base.into_iter().chain(parts).collect();
         let target = (1..=path.len()).rev().map(|k| path[..k].join("::")).find(|m| known.contains(m));
         if let Some(target) = target {
-            let related = target == module || module.starts_with(&format!("{target}::")) || target.starts_with(&format!("{module}::"));
+            let related = target == module
+                || module.starts_with(&format!("{target}::"))
+                || target.starts_with(&format!("{module}::"));
             if !related {
                 found.insert(target);
             }
