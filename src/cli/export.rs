@@ -33,7 +33,7 @@ pub fn run_export(dir: &Path, formats: &[Format], options: &ExportOptions<'_>) -
     let (scene, frames) = open_bake(dir, options.scene).map_err(input)?;
     let last = frames.frame_count().saturating_sub(1);
     let range = match options.frames {
-        Some(text) => Some(crate::parse_frames(Some(text), last)?),
+        Some(text) => Some(crate::cli::render::parse_frames(Some(text), last)?),
         None => None,
     };
     for &format in formats {

@@ -17,7 +17,8 @@ use drape::scene::Scene;
 use drape::stage::offscreen::write_png;
 use std::sync::atomic::AtomicBool;
 
-use crate::{Failure, input, run_bake};
+use super::bake::run_bake;
+use crate::{Failure, input};
 
 /// `drape sweep SPEC --out DIR`.
 pub fn run_sweep(spec: &Path, out: &Path) -> Result<(), Failure> {
