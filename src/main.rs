@@ -13,7 +13,6 @@ use drape::bench;
 use drape::bench::accuracy::ErrorMeasure;
 use drape::fabric_lab;
 use drape::scene::Scene;
-use drape::scene::preset::Preset;
 use drape::scene::summary::summary;
 
 #[derive(Parser)]
@@ -477,11 +476,11 @@ fn main() -> ExitCode {
             ..
         } => {
             let measure = if end_state { ErrorMeasure::WithEndState } else { ErrorMeasure::ContactWindow };
-            run_accuracy(&[(scene, measure)], &steps, &tolerances, frames, out.as_deref())
+            cli::bench::run_accuracy(&[(scene, measure)], &steps, &tolerances, frames, out.as_deref())
         }
-        Command::Bench { sweep: None, suite, frames, out } => run_bench(suite, frames, out.as_deref()),
+        Command::Bench { sweep: None, suite, frames, out } => cli::bench::run_bench(suite, frames, out.as_deref()),
         Command::Fabric { command: FabricCommand::Test { presets, no_drape, across, pictures } } => {
-            run_fabric_test(&presets, !no_drape, across, pictures.as_deref())
+            cli::fabric::run_fabric_test(&presets, !no_drape, across, pictures.as_deref())
         }
         Command::Fabric {
             command: FabricCommand::Fit { bending_length, area_density, drape_coefficient, base, name, across, out },
@@ -491,7 +490,7 @@ fn main() -> ExitCode {
                 area_density_gsm: area_density,
                 drape_coefficient,
             };
-            run_fabric_fit(&measured, &base, name.as_deref(), across, &out)
+            cli::fabric::run_fabric_fit(&measured, &base, name.as_deref(), across, &out)
         }
         Command::Body { body, motion, stack } => cli::body::run_body(&body, motion.as_deref(), stack.as_deref()),
         Command::Sweep { spec, out } => cli::farm::run_sweep(&spec, &out),
@@ -568,174 +567,5 @@ fn run_check(path: &Path) -> Result<(), Failure> {
     scene.simulator().map_err(input)?;
     print!("{}", summary(&scene));
     println!("ok: the scene is valid");
-    Ok(())
-}
-
-/// Sweeps each scene over `steps` × `tolerances`, prints each table, and
-/// writes the results (one chart, a curve per scene) to `out`.
-fn run_accuracy(
-    scenes: &[(PathBuf, ErrorMeasure)],
-    steps: &[u32],
-    tolerances: &[f64],
-    frames: Option<usize>,
-    out: Option<&Path>,
-) -> Result<(), Failure> {
-    if let Some(bad) = steps.iter().find(|&&s| s == 0) {
-        return Err(Failure::Input(format!("--steps: {bad} steps per frame is not a positive count")));
-    }
-    if let Some(bad) = tolerances.iter().find(|t| !(t.is_finite() && **t > 0.0 && **t < 1.0)) {
-        return Err(Failure::Input(format!("--tolerances: {bad} is not between 0 and 1")));
-    }
-    let mut sweeps = Vec::new();
-    let mut failures = Vec::new();
-    for (path, measure) in scenes {
-        let scene = Scene::load(path).map_err(input)?;
-        match bench::accuracy::sweep(&scene, steps, tolerances, frames, *measure, |line| eprintln!("{line}")) {
-            Ok(points) => {
-                println!("{}\n{}", scene.name, bench::accuracy::markdown_table(&points));
-                sweeps.push((scene.name, points));
-            }
-            Err(failure) => {
-                eprintln!("{}: the reference run failed ({failure}); no sweep", scene.name);
-                failures.push(format!("{}: {failure}", scene.name));
-            }
-        }
-    }
-    if let Some(dir) = out
-        && !sweeps.is_empty()
-    {
-        bench::report::write_accuracy(dir, &sweeps).map_err(input)?;
-        println!("wrote {}", dir.display());
-    }
-    match failures.is_empty() {
-        true => Ok(()),
-        false => Err(Failure::Internal(failures.join("; "))),
-    }
-}
-
-fn run_fabric_test(presets: &[String], drape: bool, across: usize, pictures: Option<&Path>) -> Result<(), Failure> {
-    let names: Vec<String> =
-        if presets.is_empty() { Preset::builtin_names().map(str::to_owned).collect() } else { presets.to_vec() };
-    let mut reports = Vec::new();
-    for name in &names {
-        let preset = Preset::resolve(name, Path::new(""), &toml::Table::new()).map_err(input)?;
-        eprintln!("testing {} ...", preset.name);
-        let lab = |e: fabric_lab::LabError| Failure::Input(format!("{}: {e}", preset.name));
-        let cantilever = fabric_lab::cantilever::cantilever_test(&preset.fabric, fabric_lab::fit::CANTILEVER_SEGMENTS)
-            .map_err(lab)?;
-        let cusick =
-            if drape { Some(fabric_lab::cusick::drape_test(&preset.fabric, across).map_err(lab)?) } else { None };
-        if let (Some(dir), Some(test)) = (pictures, &cusick) {
-            write_drape_picture(dir, &preset.name, test)?;
-        }
-        let report = fabric_lab::report::FabricReport { preset, cantilever, cusick };
-        print!("{}", report.text());
-        reports.push(report);
-    }
-    if reports.len() > 1 {
-        println!("\n{}", fabric_lab::report::markdown_table(&reports));
-    }
-    let failed: Vec<&str> = reports.iter().filter(|r| !r.passes()).map(|r| r.preset.name.as_str()).collect();
-    if failed.is_empty() {
-        Ok(())
-    } else {
-        Err(Failure::Found(format!("bending length off its target by more than 5 %: {}", failed.join(", "))))
-    }
-}
-
-/// Writes `test`'s shadow to DIR/<name>_drape.png.
-fn write_drape_picture(dir: &Path, name: &str, test: &fabric_lab::cusick::Cusick) -> Result<(), Failure> {
-    std::fs::create_dir_all(dir).map_err(|e| Failure::Input(format!("{}: {e}", dir.display())))?;
-    let path = dir.join(format!("{name}_drape.png"));
-    let picture = test.shadow.picture(fabric_lab::cusick::DISC_RADIUS_M);
-    drape::io::atomic::write_file(&path, |w| {
-        picture.write_to(w, image::ImageFormat::Png).map_err(std::io::Error::other)
-    })
-    .map_err(input)?;
-    eprintln!("wrote {}", path.display());
-    Ok(())
-}
-
-fn run_fabric_fit(
-    measured: &fabric_lab::fit::Measured,
-    base: &str,
-    name: Option<&str>,
-    across: usize,
-    out: &Path,
-) -> Result<(), Failure> {
-    let base = Preset::resolve(base, Path::new(""), &toml::Table::new()).map_err(input)?;
-    let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("fitted");
-    let fitted = fabric_lab::fit::fit(&base, name.unwrap_or(stem), measured, across, |line| eprintln!("{line}"))
-        .map_err(input)?;
-    drape::io::atomic::write_file(out, |w| std::io::Write::write_all(w, fitted.preset.to_toml().as_bytes()))
-        .map_err(input)?;
-    let report = fabric_lab::report::FabricReport {
-        preset: fitted.preset.clone(),
-        cantilever: fitted.cantilever,
-        cusick: fitted.cusick,
-    };
-    print!("{}", report.text());
-    println!(
-        "bend stiffness {:.4e} N·m, shear stiffness {:.4} N/m; wrote {}",
-        fitted.preset.fabric.bend_stiffness_n_m,
-        fitted.preset.fabric.shear_stiffness_n_per_m,
-        out.display()
-    );
-    Ok(())
-}
-
-fn run_bench(suite: bench::Suite, frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {
-    let log = |line: &str| eprintln!("{line}");
-    let results = bench::run(suite, frames, log).map_err(|e| Failure::Internal(e.to_string()))?;
-    if !results.is_empty() {
-        println!("{}", bench::markdown_table(&results));
-        println!("{}", bench::collision_table(&results));
-        println!("{}", bench::constraints_table(&results));
-        if suite == bench::Suite::Scaling {
-            println!("{}", bench::scaling_table(&results));
-        }
-        if let Some(dir) = out {
-            bench::report::write_results(dir, &results).map_err(input)?;
-        }
-    }
-    if matches!(suite, bench::Suite::Accuracy | bench::Suite::All) {
-        let scenes = bench::ACCURACY_SCENES.map(|(name, measure)| (bench::standard_scene(name), measure));
-        let (steps, tolerances) = (bench::ACCURACY_STEPS, bench::ACCURACY_TOLERANCES);
-        run_accuracy(&scenes, &steps, &tolerances, frames, out.map(|d| d.join("accuracy")).as_deref())?;
-    }
-    if matches!(suite, bench::Suite::Peers | bench::Suite::All) {
-        // Blender's frames are kept for inspection: in --out, or the system's temporary folder.
-        let dir = out.map_or_else(|| std::env::temp_dir().join("drape-peers"), |d| d.join("peers"));
-        let comparisons = bench::peers::compare(&dir, frames, log).map_err(|e| Failure::Internal(e.to_string()))?;
-        let table = bench::peers::markdown_table(&comparisons);
-        println!("{table}");
-        if out.is_some() {
-            let path = dir.join("peers.md");
-            drape::io::atomic::write_file(&path, |w| std::io::Write::write_all(w, table.as_bytes())).map_err(input)?;
-        }
-    }
-    if suite == bench::Suite::Soak {
-        run_soak(frames, out)?;
-    }
-    if let Some(dir) = out {
-        println!("wrote {}", dir.display());
-    }
-    let stopped: Vec<&str> = results.iter().filter(|r| r.summary.stopped.is_some()).map(|r| r.case.as_str()).collect();
-    if !stopped.is_empty() {
-        return Err(Failure::Internal(format!("{} stopped early (see above)", stopped.join(", "))));
-    }
-    Ok(())
-}
-
-/// The soak benchmark on `skirt_walk_loop`: 20,000 steps, or `frames` frames.
-fn run_soak(frames: Option<usize>, out: Option<&Path>) -> Result<(), Failure> {
-    let scene = load_scene(&bench::standard_scene("skirt_walk_loop"))?;
-    let steps = frames.map_or(bench::soak::SOAK_STEPS, |f| f * scene.steps_per_frame as usize);
-    let report =
-        bench::soak::run(&scene, steps, |line| eprintln!("{line}")).map_err(|e| Failure::Internal(e.to_string()))?;
-    println!("{}", report.markdown());
-    if let Some(dir) = out {
-        bench::report::write_soak(&report, dir).map_err(input)?;
-    }
     Ok(())
 }
