@@ -28,6 +28,7 @@ pub mod stats;
 pub mod timeline;
 pub mod timeline_bar;
 pub mod viewport;
+pub mod viewport_panel;
 pub mod window;
 pub mod worker;
 
