@@ -27,7 +27,7 @@ struct Cli {
 }
 
 /// The built-in default scene: the skirt on the walking body.
-const DEFAULT_SCENE: &str = "assets/scenes/skirt_walk.toml";
+const DEFAULT_SCENE: &str = "skirt_walk.toml";
 
 /// The editor's quality, as the live benchmark names it.
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -547,10 +547,10 @@ fn load_scene(path: &Path) -> Result<Scene, Failure> {
     Ok(scene)
 }
 
-/// The default scene: in the working folder, else where drape was built.
+/// The default scene, among the shipped examples (in the working folder,
+/// else where drape was built).
 fn default_scene() -> PathBuf {
-    let here = PathBuf::from(DEFAULT_SCENE);
-    if here.is_file() { here } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE) }
+    drape::app::examples::examples_folder().join(DEFAULT_SCENE)
 }
 
 fn run_edit(scene: Option<PathBuf>, screenshot: Option<drape::app::Screenshot>) -> Result<(), Failure> {

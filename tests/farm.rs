@@ -23,8 +23,7 @@ fn ok(output: Output) -> String {
 }
 
 /// A small cloth on a sphere read from an OBJ (an asset whose bytes count),
-/// and a sweep of `variants` frictions (× two presets when `presets`) over
-/// `frames` frames.
+/// and a sweep of two presets × `frictions` over `frames` frames.
 fn small_sweep(dir: &Path, frictions: &[f64], frames: usize) -> PathBuf {
     let grid = drape::mesh::generate::grid(0.4, 16);
     let mut obj = String::new();

@@ -147,8 +147,8 @@ fn run_locally(dir: &Path, todo: &[&Entry], jobs: usize) -> Result<(), Failure> 
         if running.is_empty() {
             break;
         }
-        let (index, mut child) = running.remove(0);
-        let status = child.wait().map_err(|e| Failure::Internal(e.to_string()))?;
+        // Whichever task ends first frees its slot for the next one.
+        let (index, status) = next_to_end(&mut running)?;
         if status.success() {
             finished += 1;
         } else {
@@ -161,6 +161,19 @@ fn run_locally(dir: &Path, todo: &[&Entry], jobs: usize) -> Result<(), Failure> 
     }
     println!("{finished} variants baked, {failed} failed, in {}", dir.display());
     if failed > 0 { Err(Failure::Internal(format!("{failed} variants failed"))) } else { Ok(()) }
+}
+
+/// Waits until one of the `running` tasks ends; removes it and returns its
+/// variant and exit status.
+fn next_to_end(running: &mut Vec<(usize, std::process::Child)>) -> Result<(usize, std::process::ExitStatus), Failure> {
+    loop {
+        for k in 0..running.len() {
+            if let Some(status) = running[k].1.try_wait().map_err(|e| Failure::Internal(e.to_string()))? {
+                return Ok((running.remove(k).0, status));
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
 }
 
 /// `drape farm task DIR INDEX`: bakes one variant into its `bake.partial`
