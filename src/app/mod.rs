@@ -11,11 +11,13 @@
 //! glue.
 
 pub mod blit;
+mod bottom_bar;
 pub mod browse;
 pub mod dialog;
 pub mod editor;
 pub mod examples;
 pub mod export;
+mod export_panel;
 pub mod fabric_panel;
 pub mod job;
 pub mod menu;

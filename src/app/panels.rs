@@ -6,12 +6,12 @@ use std::path::PathBuf;
 
 use egui::{Align2, Color32, Ui, Vec2};
 
+use super::bottom_bar::timeline;
 use super::dialog::Purpose;
-use super::editor::{Editor, FrameKind, Pending, Quality, RunState};
-use super::export::ExportKind;
+use super::editor::{Editor, Pending, Quality, RunState};
+use super::export_panel::export;
 use super::fabric_panel;
 use super::viewport_panel;
-use crate::export::Format;
 use crate::scene::preset::Preset;
 use crate::stage::fit_map::FitMap;
 
@@ -486,156 +486,6 @@ fn camera(ui: &mut Ui, editor: &mut Editor) {
         ui.add(egui::Slider::new(period, 2.0..=60.0).text("s per turn"));
     }
     ui.label("Left drag: orbit · right or middle drag: pan · wheel: zoom");
-}
-
-/// Image sizes offered for PNG frames: name, pixels (`None`: the viewport's).
-const IMAGE_SIZES: [(&str, Option<(u32, u32)>); 5] = [
-    ("1280 × 720", Some((1280, 720))),
-    ("1920 × 1080", Some((1920, 1080))),
-    ("3840 × 2160", Some((3840, 2160))),
-    ("1080 × 1350 (portrait)", Some((1080, 1350))),
-    ("as the viewport", None),
-];
-
-fn export(ui: &mut Ui, editor: &mut Editor) {
-    let mut browse = false;
-    ui.horizontal(|ui| {
-        let name = ui.label("Folder");
-        ui.add(egui::TextEdit::singleline(&mut editor.paths.export).desired_width(180.0)).labelled_by(name.id);
-        browse = ui.button("…").on_hover_text("Choose the export folder (kept in the scene file)").clicked();
-    });
-    if browse {
-        let current = editor.paths.export.clone();
-        editor.browse(Purpose::ExportFolder, &current);
-    }
-    let free = editor.export.is_none();
-    ui.label("For other tools, with the body:");
-    ui.horizontal(|ui| {
-        let formats = [
-            (Format::Usd, "USD", "One .usda with the body: Maya, Houdini, Unreal, Omniverse, Blender"),
-            (Format::Gltf, "glTF", "One .glb with the body, a morph target per frame: browsers, three.js, Blender"),
-            (Format::Mdd, "MDD", "A point cache per garment: Marvelous Designer, Houdini, Modo"),
-        ];
-        for (format, label, tip) in formats {
-            if ui.add_enabled(free, egui::Button::new(label)).on_hover_text(tip).clicked() {
-                editor.export(ExportKind::Format(format));
-            }
-        }
-        if ui.add_enabled(free, egui::Button::new("OBJ + PC2")).on_hover_text("OBJ sequence and point caches").clicked()
-        {
-            editor.export(ExportKind::Geometry);
-        }
-    });
-    ui.label("Pictures, as the viewport shows them (with the fit map and its legend):");
-    image_choices(ui, editor);
-    let tip = "PNG frames frame_NNNN.png in the export folder";
-    if ui.add_enabled(free, egui::Button::new("Export PNG")).on_hover_text(tip).clicked() {
-        editor.export_images();
-    }
-}
-
-fn image_choices(ui: &mut Ui, editor: &mut Editor) {
-    let choices = &mut editor.images;
-    ui.horizontal(|ui| {
-        ui.radio_value(&mut choices.through_view, true, "This view").on_hover_text("The camera as you placed it");
-        ui.radio_value(&mut choices.through_view, false, "Scene camera").on_hover_text("The scene file's camera");
-    });
-    ui.horizontal(|ui| {
-        ui.radio_value(&mut choices.all_frames, true, "Every frame");
-        ui.radio_value(&mut choices.all_frames, false, "This frame");
-    });
-    let name = IMAGE_SIZES.iter().find(|(_, s)| *s == choices.size).map_or("", |(n, _)| n);
-    egui::ComboBox::from_label("Size").selected_text(name).show_ui(ui, |ui| {
-        for (label, size) in IMAGE_SIZES {
-            ui.selectable_value(&mut choices.size, size, label);
-        }
-    });
-}
-
-/// Playback speeds offered, times real time.
-const SPEEDS: [f64; 6] = [0.1, 0.25, 0.5, 1.0, 2.0, 4.0];
-
-fn timeline(ui: &mut Ui, editor: &mut Editor) {
-    ui.horizontal(|ui| {
-        playback_buttons(ui, editor);
-        ui.separator();
-        let t = &mut editor.timeline;
-        ui.checkbox(&mut t.looping, "Loop").on_hover_text("Play from the start again after the newest frame");
-        let mut speed = t.speed;
-        egui::ComboBox::from_label("Speed").selected_text(format!("{speed}×")).width(60.0).show_ui(ui, |ui| {
-            for s in SPEEDS {
-                ui.selectable_value(&mut speed, s, format!("{s}×"));
-            }
-        });
-        t.speed = speed;
-        ui.separator();
-        let (k, range) = (t.current(), t.range);
-        ui.label(format!("frame {k} of {range} · {:.2} s", t.time_of(k)));
-        if editor.shown_is_stale() {
-            ui.colored_label(super::timeline_bar::colour(Some(FrameKind::Stale)), "stale")
-                .on_hover_text("Simulated with other settings than the current ones: re-simulate to see them");
-        }
-        let resimulate = ui
-            .add_enabled(
-                k < editor.timeline.last() || editor.shown_is_stale(),
-                egui::Button::new("Re-simulate from here"),
-            )
-            .on_hover_text("Drop the frames after this one and simulate on from it with the current settings");
-        if resimulate.clicked() {
-            editor.resimulate_from_here();
-        }
-        job_progress(ui, editor);
-    });
-    let kinds = editor.frame_kinds();
-    let t = &mut editor.timeline;
-    let frames = t.range.max(t.last());
-    if let Some(frame) = super::timeline_bar::timeline_bar(ui, frames, &kinds, t.current()) {
-        t.seek(frame);
-    }
-}
-
-fn playback_buttons(ui: &mut Ui, editor: &mut Editor) {
-    let t = &mut editor.timeline;
-    if ui.button("|<").on_hover_text("First frame (Home)").clicked() {
-        t.seek(0);
-    }
-    if ui.button("<").on_hover_text("Previous frame (left arrow)").clicked() {
-        t.step(-1);
-    }
-    let label = if t.playing { "Pause" } else { "Play" };
-    if ui.button(label).on_hover_text("Play the simulated frames (Space)").clicked() {
-        t.playing = !t.playing;
-    }
-    if ui.button(">").on_hover_text("Next frame (right arrow)").clicked() {
-        t.step(1);
-    }
-    if ui.button(">|").on_hover_text("Newest frame (End)").clicked() {
-        t.seek(t.end());
-    }
-}
-
-/// The bake's and the export's progress, time left and Cancel.
-fn job_progress(ui: &mut Ui, editor: &mut Editor) {
-    let mut cancel_export = false;
-    if let Some(job) = &editor.export {
-        ui.separator();
-        let left = job.time_left_s().map_or(String::new(), |s| format!(", {s:.0} s left"));
-        let text = format!("export {}/{}{left}", job.done, job.total);
-        ui.add(egui::ProgressBar::new(job.done as f32 / job.total.max(1) as f32).text(text).desired_width(220.0));
-        cancel_export = ui.button("Cancel export").on_hover_text("Stop after the file in progress (Esc)").clicked();
-    }
-    if cancel_export {
-        editor.cancel_export();
-    }
-    if let RunState::Baking { done, total, .. } = editor.run {
-        ui.separator();
-        let left = editor.bake_time_left_s().map_or(String::new(), |s| format!(", {s:.0} s left"));
-        let text = format!("bake {done}/{total}{left}");
-        ui.add(egui::ProgressBar::new(done as f32 / total.max(1) as f32).text(text).desired_width(260.0));
-        if ui.button("Cancel").on_hover_text("Stop the bake: the last complete bake comes back (Esc)").clicked() {
-            editor.pause();
-        }
-    }
 }
 
 fn messages(ctx: &egui::Context, editor: &mut Editor) {

@@ -1,10 +1,15 @@
 //! The wgpu renderer: a shadow pass for the key light, then one PBR pass
 //! (4× MSAA) that exposes and tone-maps into an sRGB target.
 
+mod pipelines;
+mod uniforms;
+
 use glam::camera::rh::{proj::directx, view::look_at_mat4};
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
+use self::pipelines::{sampler_entry, texture_entry, texture_with_data, uniform_entry};
+use self::uniforms::{FrameUniforms, ObjectUniforms, ShadowProjection, frame_uniforms};
 use super::camera::{Bounds, OrbitCamera};
 use super::draw::{DrawMesh, Material, Vertex};
 use super::gpu::{Gpu, RenderError};
@@ -64,51 +69,6 @@ impl View {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct LightUniform {
-    towards_light: [f32; 4],
-    illuminance: [f32; 4],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct FrameUniforms {
-    clip_from_world: [[f32; 4]; 4],
-    light_clip_from_world: [[f32; 4]; 4],
-    camera_position: [f32; 4],
-    sky_irradiance: [f32; 4],
-    ground_irradiance: [f32; 4],
-    params: [f32; 4],
-    shadow: [f32; 4],
-    lights: [LightUniform; MAX_LIGHTS],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ObjectUniforms {
-    world_from_model: [[f32; 4]; 4],
-    base: [f32; 4],
-    back: [f32; 4],
-    sheen: [f32; 4],
-    params: [f32; 4],
-}
-
-impl ObjectUniforms {
-    fn new(world_from_model: Mat4, m: &Material) -> Self {
-        let [r, g, b] = m.base_color;
-        let [br, bg, bb] = m.back_color;
-        let [sr, sg, sb] = m.sheen_color;
-        ObjectUniforms {
-            world_from_model: world_from_model.to_cols_array_2d(),
-            base: [r, g, b, m.metallic],
-            back: [br, bg, bb, m.roughness],
-            sheen: [sr, sg, sb, m.sheen_roughness.max(MIN_SHEEN_ROUGHNESS as f32)],
-            params: [m.grid_spacing_m, m.unlit.clamp(0.0, 1.0), 0.0, 0.0],
-        }
-    }
-}
-
 /// A mesh on the GPU.
 struct GpuMesh {
     vertices: wgpu::Buffer,
@@ -150,97 +110,6 @@ pub struct Renderer {
     base_sampler: wgpu::Sampler,
     white: wgpu::TextureView,
     meshes: Vec<GpuMesh>,
-}
-
-fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type,
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
-fn sampler_entry(binding: u32, kind: wgpu::SamplerBindingType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Sampler(kind),
-        count: None,
-    }
-}
-
-/// A WGSL module and the pipeline layout of its two bind groups.
-fn module_and_layout(
-    device: &wgpu::Device,
-    label: &str,
-    wgsl: &str,
-    groups: [&wgpu::BindGroupLayout; 2],
-) -> (wgpu::ShaderModule, wgpu::PipelineLayout) {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
-    });
-    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(label),
-        bind_group_layouts: &groups.map(Some),
-        immediate_size: 0,
-    });
-    (module, layout)
-}
-
-fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
-    const ATTRIBUTES: [wgpu::VertexAttribute; 3] =
-        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
-    wgpu::VertexBufferLayout {
-        array_stride: std::mem::size_of::<Vertex>() as u64,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &ATTRIBUTES,
-    }
-}
-
-/// A 2D texture with data, sampled in shaders.
-fn texture_with_data(
-    gpu: &Gpu,
-    label: &str,
-    size: (u32, u32),
-    format: wgpu::TextureFormat,
-    data: &[u8],
-) -> wgpu::TextureView {
-    gpu.device
-        .create_texture_with_data(
-            &gpu.queue,
-            &wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            },
-            wgpu::util::TextureDataOrder::LayerMajor,
-            data,
-        )
-        .create_view(&wgpu::TextureViewDescriptor::default())
 }
 
 impl Renderer {
@@ -357,85 +226,6 @@ impl Renderer {
             base_sampler,
             white,
             meshes: Vec::new(),
-        })
-    }
-
-    fn pbr_pipeline(
-        device: &wgpu::Device,
-        frame: &wgpu::BindGroupLayout,
-        object: &wgpu::BindGroupLayout,
-        kind: PbrPass,
-    ) -> wgpu::RenderPipeline {
-        let (module, layout) =
-            module_and_layout(device, "pbr", include_str!("../../shaders/pbr.wgsl"), [frame, object]);
-        let (samples, soft_shadows) = match kind {
-            PbrPass::Full => (SAMPLE_COUNT, 1.0),
-            PbrPass::Quick => (1, 0.0),
-        };
-        let constants = [("SOFT_SHADOWS", soft_shadows)];
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("pbr"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex_layout())],
-            },
-            // Cloth is two-sided: no culling, the shader flips back-face normals.
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: COLOR_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
-    }
-
-    fn shadow_pipeline(
-        device: &wgpu::Device,
-        frame: &wgpu::BindGroupLayout,
-        object: &wgpu::BindGroupLayout,
-    ) -> wgpu::RenderPipeline {
-        let (module, layout) =
-            module_and_layout(device, "shadow", include_str!("../../shaders/shadow.wgsl"), [frame, object]);
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("shadow"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_shadow"),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex_layout())],
-            },
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::LessEqual),
-                stencil: Default::default(),
-                // Slope-scaled bias against shadow acne on surfaces lit at grazing angles.
-                bias: wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 },
-            }),
-            multisample: Default::default(),
-            fragment: None,
-            multiview_mask: None,
-            cache: None,
         })
     }
 
@@ -596,75 +386,4 @@ fn draw(pass: &mut wgpu::RenderPass<'_>, mesh: &GpuMesh) {
     pass.set_vertex_buffer(0, mesh.vertices.slice(..));
     pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
     pass.draw_indexed(0..mesh.index_count, 0, 0..1);
-}
-
-/// The key light's orthographic projection.
-struct ShadowProjection {
-    /// Shadow-map clip space from world space.
-    clip_from_world: Mat4,
-    /// World size of one shadow texel, m.
-    texel_m: f32,
-    /// Depth covered by the projection (NDC depth 0..1), m.
-    depth_range_m: f32,
-}
-
-impl ShadowProjection {
-    /// The projection of a light towards `towards_light` around `bounds`.
-    fn around(towards_light: Vec3, bounds: &Bounds) -> ShadowProjection {
-        let centre = bounds.centre();
-        let radius = bounds.radius().max(1e-3);
-        // A low light throws long shadows: widen the map as the light sinks.
-        let half = (radius / towards_light.y.abs().max(0.35)).min(3.0 * radius);
-        let up = if towards_light.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
-        let view = look_at_mat4(centre + towards_light * 4.0 * half, centre, up);
-        let depth_range_m = 8.0 * half;
-        let projection = directx::orthographic(-half, half, -half, half, 0.0, depth_range_m);
-        ShadowProjection {
-            clip_from_world: projection * view,
-            texel_m: 2.0 * half / SHADOW_MAP_SIZE as f32,
-            depth_range_m,
-        }
-    }
-
-    /// No shadow-casting light.
-    fn none() -> ShadowProjection {
-        ShadowProjection { clip_from_world: Mat4::IDENTITY, texel_m: 0.0, depth_range_m: 0.0 }
-    }
-}
-
-fn frame_uniforms(view: &View, shadow: &ShadowProjection) -> FrameUniforms {
-    let (light_clip_from_world, texel_m, depth_range_m) =
-        (shadow.clip_from_world, shadow.texel_m, shadow.depth_range_m);
-    let camera = &view.camera;
-    let clip_from_world = camera.projection(view.aspect, view.ground_extent_m) * camera.view();
-    let mut lights = [LightUniform { towards_light: [0.0; 4], illuminance: [0.0; 4] }; MAX_LIGHTS];
-    for (slot, l) in lights.iter_mut().zip(&view.lights) {
-        slot.towards_light = l.towards_light.extend(if l.shadow { 1.0 } else { 0.0 }).to_array();
-        slot.illuminance = l.illuminance.extend(0.0).to_array();
-    }
-    // The shader sizes each penumbra from the occluder gap (PCSS): a gap of
-    // `d` m behind an occluder lit by a source of angular radius θ blurs
-    // `d tan θ` m. The depth range of the light's projection converts depth
-    // differences to metres; the search covers the gap across the scene.
-    let softness = view.lights.iter().find(|l| l.shadow).map_or(0.0, |l| l.softness_rad);
-    let (texels_per_depth, widest_texels) = match texel_m > 0.0 {
-        true => {
-            let texels_per_m = softness.tan() / texel_m;
-            (
-                depth_range_m * texels_per_m,
-                (view.shadow_bounds.radius() * texels_per_m).clamp(1.0, MAX_PCF_RADIUS_TEXELS),
-            )
-        }
-        false => (0.0, 1.0),
-    };
-    FrameUniforms {
-        clip_from_world: clip_from_world.to_cols_array_2d(),
-        light_clip_from_world: light_clip_from_world.to_cols_array_2d(),
-        camera_position: camera.eye().extend(1.0).to_array(),
-        sky_irradiance: view.sky_irradiance.extend(0.0).to_array(),
-        ground_irradiance: view.ground_irradiance.extend(0.0).to_array(),
-        params: [view.exposure, 1.0 / SHADOW_MAP_SIZE as f32, widest_texels, view.lights.len().min(MAX_LIGHTS) as f32],
-        shadow: [1.5 * texel_m, 1e-4, texels_per_depth, 0.0],
-        lights,
-    }
 }
