@@ -3,7 +3,7 @@
 
 use drape::bench::accuracy::{self, ErrorMeasure, Reference};
 use drape::bench::report::{write_accuracy, write_results};
-use drape::bench::{BenchResult, measure, standard_scene};
+use drape::bench::{BenchResult, Suite, measure, standard_scene};
 use drape::scene::Scene;
 use drape::scene::file::MeshSpec;
 
@@ -23,7 +23,8 @@ fn bench_writes_a_full_csv_the_report_and_non_empty_charts() {
     let reference = Reference::run(&scene, 12, ErrorMeasure::WithEndState).unwrap();
     let (summary, errors) = measure(&scene, Some(12), Some(&reference)).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let result = BenchResult { case: "tiny".into(), summary, peak_memory_mib: Some(120.0), errors };
+    let result =
+        BenchResult { case: "tiny".into(), summary, peak_memory_mib: Some(120.0), errors, suites: vec![Suite::Paper] };
     write_results(dir.path(), &[result]).unwrap();
 
     let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
@@ -31,8 +32,10 @@ fn bench_writes_a_full_csv_the_report_and_non_empty_charts() {
     assert_eq!(lines.len(), 2, "{csv}");
     let columns = lines[0].split(',').count();
     assert_eq!(lines[1].split(',').count(), columns, "every column filled: {csv}");
+    assert!(lines[1].starts_with("tiny,paper,"), "the case and the suites listing it: {csv}");
     for column in [
         "ms_per_frame_median",
+        "ms_per_frame_p95",
         "max_strain",
         "intersections_total",
         "cg_iterations_per_step",

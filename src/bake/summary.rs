@@ -53,6 +53,9 @@ pub struct BakeSummary {
     pub hinges: usize,
     /// Median wall time of the simulation per frame (no I/O), ms.
     pub ms_per_frame_median: f64,
+    /// 95th percentile of the wall time per frame (nearest rank), ms.
+    #[serde(default)]
+    pub ms_per_frame_p95: f64,
     /// Mean wall time per frame, ms.
     pub ms_per_frame_mean: f64,
     /// Slowest frame, ms.
@@ -176,6 +179,15 @@ pub fn median(values: &[f64]) -> f64 {
     }
 }
 
+/// The `q`-quantile of `values` by nearest rank (the smallest value with at
+/// least a fraction `q` of them at or below it; 0 for none), `q` in (0, 1].
+pub fn percentile(values: &[f64], q: f64) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let rank = (q * sorted.len() as f64).ceil() as usize;
+    sorted.get(rank.max(1) - 1).copied().unwrap_or(0.0)
+}
+
 /// Mean of the frames' mean speeds over the frames that end in the last
 /// second of `records`, m/s (0 for none).
 fn mean_speed_over_last_second(records: &[FrameRecord]) -> f64 {
@@ -217,6 +229,7 @@ impl BakeSummary {
             springs: cloth.spring_count(),
             hinges: cloth.hinge_vertices.len(),
             ms_per_frame_median: median(&frame_ms),
+            ms_per_frame_p95: percentile(&frame_ms, 0.95),
             ms_per_frame_mean: frame_ms.iter().sum::<f64>() / frame_ms.len().max(1) as f64,
             ms_per_frame_max: frame_ms.iter().copied().fold(0.0, f64::max),
             ms_per_frame_wall: None,
@@ -308,5 +321,15 @@ mod tests {
         assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
         assert_eq!(median(&[]), 0.0);
+    }
+
+    #[test]
+    fn percentile_by_nearest_rank() {
+        let hundred: Vec<f64> = (1..=100).rev().map(f64::from).collect();
+        assert_eq!(percentile(&hundred, 0.95), 95.0);
+        assert_eq!(percentile(&hundred, 1.0), 100.0);
+        assert_eq!(percentile(&[7.0, 3.0], 0.95), 7.0);
+        assert_eq!(percentile(&[4.0], 0.5), 4.0);
+        assert_eq!(percentile(&[], 0.95), 0.0);
     }
 }

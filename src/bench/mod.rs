@@ -33,6 +33,9 @@ pub struct BenchResult {
     pub peak_memory_mib: Option<f64>,
     /// Its errors against the reference run, if measured.
     pub errors: Option<RunErrors>,
+    /// The suites whose tables list it (`--suite all` runs a case shared by
+    /// several suites once).
+    pub suites: Vec<Suite>,
 }
 
 /// Why a benchmark could not run.
@@ -96,6 +99,34 @@ pub enum Suite {
     All,
 }
 
+impl Suite {
+    /// The suite's name on the command line and in `bench.csv`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Suite::Paper => "paper",
+            Suite::Hard => "hard",
+            Suite::Accuracy => "accuracy",
+            Suite::Core => "core",
+            Suite::Collisions => "collisions",
+            Suite::Constraints => "constraints",
+            Suite::Scaling => "scaling",
+            Suite::Peers => "peers",
+            Suite::Soak => "soak",
+            Suite::All => "all",
+        }
+    }
+
+    /// The suites whose cases this one runs: itself, or each of them for `all`.
+    fn parts(self) -> Vec<Suite> {
+        match self {
+            Suite::All => {
+                vec![Suite::Paper, Suite::Hard, Suite::Core, Suite::Collisions, Suite::Constraints, Suite::Scaling]
+            }
+            suite => vec![suite],
+        }
+    }
+}
+
 /// One benchmark case: a standard scene, edited.
 #[derive(Clone, Copy, Debug)]
 struct Case {
@@ -155,7 +186,7 @@ impl Case {
 /// Standard scenes of the collision suite, at the sizes to run them.
 const COLLISION_CASES: [Case; 6] = [
     Case::new("drape_table", None, true),
-    Case::new("drape_sphere", Some(64), true).with_error(Some(ErrorMeasure::WithEndState)),
+    Case::new("drape_sphere", None, true).with_error(Some(ErrorMeasure::WithEndState)),
     Case::new("pillars", None, true),
     Case::new("projectile", None, true),
     Case::new("needles", None, true),
@@ -223,15 +254,7 @@ fn cases(suite: Suite) -> Vec<Case> {
         Suite::Scaling => scaling.collect(),
         Suite::Paper => PAPER_CASES.to_vec(),
         Suite::Hard => HARD_CASES.to_vec(),
-        Suite::Accuracy | Suite::Peers | Suite::Soak => Vec::new(),
-        Suite::All => PAPER_CASES
-            .into_iter()
-            .chain(HARD_CASES)
-            .chain(core)
-            .chain(COLLISION_CASES)
-            .chain(constraints)
-            .chain(scaling)
-            .collect(),
+        Suite::Accuracy | Suite::Peers | Suite::Soak | Suite::All => Vec::new(),
     }
 }
 
@@ -241,30 +264,59 @@ fn cases(suite: Suite) -> Vec<Case> {
 /// simulation stops is logged with the reason and kept, measured over the
 /// frames before the stop and named so in every table; the suite goes on.
 pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Vec<BenchResult>, BenchError> {
-    let mut results = Vec::new();
-    for case in cases(suite) {
-        let scene = case.load()?;
-        let name = case.name(&scene);
-        let length = frames.map_or(scene.frame_count, |n| n.min(scene.frame_count));
-        let reference = case.error.and_then(|error| {
-            log(&format!("running {name}: its reference ..."));
-            Reference::run(&scene, length, error)
-                .inspect_err(|failure| log(&format!("{name}: the reference run failed ({failure}); no error measured")))
-                .ok()
-        });
-        log(&format!("running {name} ..."));
-        memory::reset_peak();
-        let (summary, errors) = measure(&scene, frames, reference.as_ref())?;
-        let case = match &summary.stopped {
-            Some(why) => {
-                log(&format!("{name}: {why}; measured over the frames before"));
-                format!("{name} (stopped after {} frames)", summary.frames - 1)
+    let mut results: Vec<BenchResult> = Vec::new();
+    let mut names = Vec::new();
+    for part in suite.parts() {
+        for case in cases(part) {
+            let scene = case.load()?;
+            let name = case.name(&scene);
+            if let Some(k) = names.iter().position(|n| *n == name) {
+                results[k].suites.push(part);
+                continue;
             }
-            None => name,
-        };
-        results.push(BenchResult { summary, case, peak_memory_mib: memory::peak_mib(), errors });
+            names.push(name.clone());
+            results.push(run_case(&case, &scene, name, frames, &log)?.in_suite(part));
+        }
     }
     Ok(results)
+}
+
+/// Runs one case of `scene`: its reference first when it is measured
+/// against one, then the case, named `name` (with the frames it reached if
+/// it stopped).
+fn run_case(
+    case: &Case,
+    scene: &Scene,
+    name: String,
+    frames: Option<usize>,
+    log: &impl Fn(&str),
+) -> Result<BenchResult, BenchError> {
+    let length = frames.map_or(scene.frame_count, |n| n.min(scene.frame_count));
+    let reference = case.error.and_then(|error| {
+        log(&format!("running {name}: its reference ..."));
+        Reference::run(scene, length, error)
+            .inspect_err(|failure| log(&format!("{name}: the reference run failed ({failure}); no error measured")))
+            .ok()
+    });
+    log(&format!("running {name} ..."));
+    memory::reset_peak();
+    let (summary, errors) = measure(scene, frames, reference.as_ref())?;
+    let case = match &summary.stopped {
+        Some(why) => {
+            log(&format!("{name}: {why}; measured over the frames before"));
+            format!("{name} (stopped after {} frames)", summary.frames - 1)
+        }
+        None => name,
+    };
+    Ok(BenchResult { summary, case, peak_memory_mib: memory::peak_mib(), errors, suites: Vec::new() })
+}
+
+impl BenchResult {
+    /// The result, listed in `suite`'s tables.
+    fn in_suite(mut self, suite: Suite) -> Self {
+        self.suites.push(suite);
+        self
+    }
 }
 
 /// Runs `scene` (the first `frames` frames, or all) and summarises it, with
@@ -398,7 +450,8 @@ pub fn constraints_table(results: &[BenchResult]) -> String {
 
 /// The results as CSV, one row per case.
 pub fn csv(results: &[BenchResult]) -> String {
-    let mut out = String::from("case,vertices,threads,frames,steps_per_frame,ms_per_frame_median");
+    let mut out =
+        String::from("case,suites,vertices,threads,frames,steps_per_frame,ms_per_frame_median,ms_per_frame_p95");
     for stage in stage_names() {
         let _ = write!(out, ",{stage}_ms");
     }
@@ -409,8 +462,15 @@ pub fn csv(results: &[BenchResult]) -> String {
         let s = &r.summary;
         let _ = write!(
             out,
-            "{},{},{},{},{},{:.4}",
-            r.case, s.vertices, s.threads, s.frames, s.steps_per_frame, s.ms_per_frame_median
+            "{},{},{},{},{},{},{:.4},{:.4}",
+            r.case,
+            r.suites.iter().map(|suite| suite.name()).collect::<Vec<_>>().join(";"),
+            s.vertices,
+            s.threads,
+            s.frames,
+            s.steps_per_frame,
+            s.ms_per_frame_median,
+            s.ms_per_frame_p95
         );
         for stage in stage_names() {
             let _ = write!(out, ",{:.4}", s.stage_ms_per_frame_median.get(stage).copied().unwrap_or(0.0));
