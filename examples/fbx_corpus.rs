@@ -1,8 +1,7 @@
 //! drape's FBX reader over a corpus of files written by the real
 //! applications (the ufbx project's `data/` folder): how many files load,
 //! and how far each evaluated mesh is from the OBJ the source application
-//! exported at the same frame. BENCHMARKS.md and docs/fbx.md quote its
-//! output.
+//! exported at the same frame. docs/fbx.md quotes its output.
 //!
 //!     cargo run --release --example fbx_corpus -- UFBX_DATA_DIR CHECKS.tsv
 //!

@@ -1,6 +1,6 @@
 //! What a scene's steps are made of: the simulation of `drape bake` without
-//! its checks and files, step by step, for profiling and for the scratch
-//! comparisons of `BENCHMARKS.md`.
+//! its checks and files, step by step, for profiling and for A/B
+//! comparisons of a change.
 //!
 //!     cargo run --release --example step_stats -- assets/scenes/drape_table.toml 91
 //!     cargo run --release --example step_stats -- SCENE FRAMES --steps

@@ -324,7 +324,7 @@ fn drape_sphere_springs_only_at(n: usize) -> Vec<Vector3<f64>> {
 /// the springs' promise, so the strain limits are off: with cotton's 1 %
 /// limit the 32 × 32 drape stands 3-6 cm wider than the 64 × 64 one (a coarse
 /// grid of nearly inextensible edges cannot fold as finely: membrane
-/// locking, measured and recorded in BENCHMARKS.md).
+/// locking).
 ///
 /// The box is the one holding all but the outermost 1 % of the cloth on each
 /// side (vertices carry equal areas on a grid), and the whole box is compared

@@ -1,6 +1,8 @@
-//! The editor's layout: toolbar, the scene / fabric / collision / lights /
-//! export panels (PAPER Fig. 10), the timeline, the viewport with its
-//! statistics overlay, messages, and the unsaved-changes question.
+//! The editor's layout: toolbar, the scene / fabric / collision / lights
+//! panels (PAPER Fig. 10), with the Export panel ([`super::export_panel`]),
+//! the bottom bar ([`super::bottom_bar`]) and the 3D view
+//! ([`super::viewport_panel`]) placed in it; messages and the
+//! unsaved-changes question.
 
 use std::path::PathBuf;
 

@@ -6,15 +6,26 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::BenchResult;
+use super::{BenchResult, Suite};
 use super::accuracy::{self, SceneSweep};
 use super::plots::PlotError;
 use super::soak::SoakReport;
 use crate::io::atomic::{WriteError, write_file};
 
 /// Writes `bench.csv`, `bench.md` and the charts (`strain_over_time` and
-/// `time_per_stage`, PNG and SVG) into `dir`.
+/// `time_per_stage`, PNG and SVG) into `dir`; when the results span several
+/// suites (`--suite all`), each suite's charts also go into `dir/SUITE/`.
 pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), PlotError> {
+    let mut suites: Vec<Suite> = results.iter().flat_map(|r| r.suites.iter().copied()).collect();
+    suites.dedup();
+    suites.sort_by_key(|suite| suite.name());
+    suites.dedup();
+    if suites.len() > 1 {
+        for suite in suites {
+            let part: Vec<BenchResult> = results.iter().filter(|r| r.suites.contains(&suite)).cloned().collect();
+            write_charts(&dir.join(suite.name()), &part)?;
+        }
+    }
     std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
     write_file(&dir.join("bench.csv"), |w| std::io::Write::write_all(w, super::csv(results).as_bytes()))?;
     let tables = format!(
@@ -25,6 +36,12 @@ pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), PlotErro
         super::scaling_table(results)
     );
     write_file(&dir.join("bench.md"), |w| std::io::Write::write_all(w, tables.as_bytes()))?;
+    write_charts(dir, results)
+}
+
+/// Writes the `strain_over_time` and `time_per_stage` charts of `results` into `dir`.
+fn write_charts(dir: &Path, results: &[BenchResult]) -> Result<(), PlotError> {
+    std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.to_owned(), source })?;
     super::plots::strain_over_time(dir, results)?;
     super::plots::time_per_stage(dir, results)
 }

@@ -37,7 +37,7 @@
 //! limb can reach the cloth within any step, which the last step's estimate
 //! does not foresee, and the walks gained little (`skirt_walk` 1.9 steps
 //! per frame) for strain peaks that moved and grew (1.14-1.44 % against
-//! 1.01 %; BENCHMARKS). The estimate is part of the simulator's state (checkpoints and
+//! 1.01 %; 723560f). The estimate is part of the simulator's state (checkpoints and
 //! snapshots), so the lengths a bake takes are the same when it is resumed.
 //!
 //! Steps are counted in units of the floor step, so the halved, regrown and

@@ -16,7 +16,7 @@
 //!
 //! The spring couples particles of two fold layers, which the springs'
 //! factor does not hold, and conjugate gradients pays for such couplings with
-//! many iterations (BENCHMARKS, 2026-12-04 noon). So its Jacobian
+//! many iterations (b0ac764). So its Jacobian
 //! `−k (w wᵀ) ⊗ (n nᵀ)` enters the system *lumped*: each cloth particle's
 //! diagonal block gets its row's absolute sum over the cloth particles,
 //! `k |wᵢ| Σⱼ |wⱼ| n nᵀ` (`2 k |wᵢ| n nᵀ` for a self-contact, the weights of

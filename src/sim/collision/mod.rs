@@ -100,14 +100,14 @@ pub struct CollisionSettings {
     /// apart in the implicit solve ([`crate::sim::repulsion`]), N/m; 0 turns
     /// them off. At 0.5 `drape_sphere`, `spin_sphere` and the tiered skirt
     /// keep most of what 2 gives them, and `pillars`, whose folds rest on
-    /// sharp tops, no longer pays for it (BENCHMARKS, 2026-12-04).
+    /// sharp tops, no longer pays for it (f858749).
     pub repulsion_stiffness: f64,
     /// Stiffness of the springs that push the cloth off the analytic
     /// colliders' sharp features it rests on (a table's edge, a needle's
     /// tip; not a body's skin) in the implicit solve, N/m; 0 turns them off.
     /// At 30 `drape_table`'s corners keep their strain limit with no impact
     /// zone and its response takes a third of the time, and `needles`' frame
-    /// is 40 % shorter (BENCHMARKS, 2026-12-04 afternoon). A weaker spring
+    /// is 40 % shorter (91a3e83). A weaker spring
     /// pushes the cloth only part of the way and the corners tear more than
     /// with none: 15 is enough at N = 96, not at N = 48, whose coarser edges
     /// carry twice the tension each.

@@ -4,7 +4,7 @@
 //! A fold that rests on itself is left by the response with its feature
 //! pairs at the thickness; the next solve, which knows nothing of them,
 //! presses them back within it, and every step's passes answer them again
-//! (thousands per step on `drape_sphere`, see BENCHMARKS). So does cloth
+//! (thousands per step on `drape_sphere`, b0ac764). So does cloth
 //! drawn taut over a sharp obstacle feature: a table's edge or a needle's
 //! tip, which the cloth's edges cut across within the thickness whenever
 //! the solve and the strain limits pull it straight (hundreds of pairs per
@@ -12,7 +12,7 @@
 //! over them). Only analytic colliders' sharp features count here: a body's
 //! skin or a mesh collider's triangles are left to the response alone
 //! (pushing a skirt's tiers off the skin in the solve raised their passing
-//! strain peaks, BENCHMARKS 2026-12-04 afternoon). The pairs are the
+//! strain peaks, 91a3e83). The pairs are the
 //! contacts the pipeline remembers (their
 //! influence, eq. 16: what snapshots, roll-backs and resumed bakes already
 //! restore), taken in key order with their closest points at the step's
@@ -30,7 +30,7 @@
 //! steps, lost its spring, fell back within the thickness, was answered and
 //! remembered again, over and over (on `drape_table`'s edges, half of the
 //! motion left in the settled cloth; remembered on the needles too, the
-//! cloth slid on them four times as fast: BENCHMARKS 2026-12-05 late night).
+//! cloth slid on them four times as fast: 9177ffd).
 
 use nalgebra::Vector3;
 
