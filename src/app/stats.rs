@@ -54,6 +54,9 @@ pub fn overlay_lines(record: &FrameRecord) -> Vec<String> {
             strain += &format!(" ({:.2} % not between pins)", record.max_free_strain * 100.0);
         }
         lines.push(format!("{strain}  mean {:.2} %", record.mean_strain * 100.0));
+        if let Some(unreachable) = &record.limits_unreachable {
+            lines.push(unreachable.to_string());
+        }
         lines.push(format!("cloth moving {:.1} mm/s on average", record.mean_speed_m_per_s * 1e3));
         if record.rollbacks > 0 {
             let causes = record.rollback_causes.phrases().join(", ");

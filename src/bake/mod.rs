@@ -14,6 +14,7 @@ use crate::metrics::intersections::{Checker, Intersections};
 use crate::scene::Scene;
 use crate::sim::adaptive::{RollbackCauses, Stepper, Unrecoverable};
 use crate::sim::fabric::Fabric;
+use crate::sim::pin_reach::Unreachable;
 use crate::sim::snapshot::{Snapshot, SnapshotError};
 use crate::sim::step::{StageTimings, TuningError};
 use crate::sim::{SimError, Simulator};
@@ -56,6 +57,11 @@ pub struct FrameRecord {
     /// cloth's own strain, which the solver controls.
     #[serde(default)]
     pub max_free_strain: f64,
+    /// Two pins further apart at the end of the frame than the cloth between
+    /// them may reach, when any are: the strain limits cannot be met there
+    /// ([`crate::sim::pin_reach`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limits_unreachable: Option<Unreachable>,
     /// Mean stretch strain at the end of the frame.
     pub mean_strain: f64,
     /// Mean speed of the cloth's particles over the frame: each one's
@@ -246,6 +252,7 @@ impl Baker {
         record.steps = advance.steps;
         record.rollbacks = advance.rollbacks;
         record.rollback_causes = advance.causes;
+        record.limits_unreachable = self.sim.unreachable_limits();
         record.shortest_step_s = advance.shortest_step_s;
         record.longest_step_s = advance.longest_step_s;
         record.long_steps_rejected = advance.long_steps_rejected;

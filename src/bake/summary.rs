@@ -9,6 +9,7 @@ use super::FrameRecord;
 use crate::metrics::intersections::Intersections;
 use crate::scene::Scene;
 use crate::sim::adaptive::RollbackCauses;
+use crate::sim::pin_reach::Unreachable;
 use crate::sim::step::StageTimings;
 
 /// Everything `summary.json` holds.
@@ -89,6 +90,17 @@ pub struct BakeSummary {
     /// Frame of that largest free strain.
     #[serde(default)]
     pub max_free_strain_frame: usize,
+    /// The largest free strain at the end of a frame whose limits the pins
+    /// left reachable: what the solver answers for.
+    #[serde(default)]
+    pub max_free_strain_reachable: f64,
+    /// Frames that ended with pins further apart than the cloth between them
+    /// may reach ([`crate::sim::pin_reach`]): their limits could not be met.
+    #[serde(default)]
+    pub frames_limits_unreachable: usize,
+    /// The worst of those pin pairs over the bake, with its frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limits_unreachable: Option<(usize, Unreachable)>,
     /// Mean strain at the last frame.
     pub mean_strain_last: f64,
     /// Mean speed of the cloth's particles over the last second of the bake
@@ -150,6 +162,10 @@ pub struct FrameRow {
     /// Largest stretch at the frame end of a spring not pinned at both ends.
     #[serde(default)]
     pub max_free_strain: f64,
+    /// Pins further apart at the frame end than the cloth between them may
+    /// reach, when any are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limits_unreachable: Option<Unreachable>,
     /// Mean strain at the frame end.
     pub mean_strain: f64,
     /// Mean speed of the cloth's particles over the frame, m/s.
@@ -248,6 +264,16 @@ impl BakeSummary {
             max_strain_frame: worst.map_or(0, |r| r.frame),
             max_free_strain: worst_free.map_or(0.0, |r| r.max_free_strain),
             max_free_strain_frame: worst_free.map_or(0, |r| r.frame),
+            max_free_strain_reachable: records
+                .iter()
+                .filter(|r| r.limits_unreachable.is_none())
+                .map(|r| r.max_free_strain)
+                .fold(0.0, f64::max),
+            frames_limits_unreachable: records.iter().filter(|r| r.limits_unreachable.is_some()).count(),
+            limits_unreachable: records
+                .iter()
+                .filter_map(|r| r.limits_unreachable.map(|u| (r.frame, u)))
+                .max_by(|a, b| a.1.forced_strain.total_cmp(&b.1.forced_strain)),
             mean_strain_last: records.last().map_or(0.0, |r| r.mean_strain),
             mean_speed_last_second_m_per_s: mean_speed_over_last_second(records),
             contacts_max: records.iter().map(|r| r.contacts).max().unwrap_or(0),
@@ -277,6 +303,7 @@ impl BakeSummary {
                     projection_iterations: r.projection_iterations,
                     max_strain: r.max_strain,
                     max_free_strain: r.max_free_strain,
+                    limits_unreachable: r.limits_unreachable,
                     mean_strain: r.mean_strain,
                     mean_speed_m_per_s: r.mean_speed_m_per_s,
                     contacts: r.contacts,

@@ -149,6 +149,15 @@ fn print_bake_summary(summary: &BakeSummary, scene: &Scene, out: &Path) {
         summary.contacts_max,
         summary.triangle_contacts_max,
     );
+    if let Some((frame, worst)) = &summary.limits_unreachable {
+        println!(
+            "{} of {} frames end with the strain limits out of reach of the pins; the worst, frame {frame}: {worst}; \
+             where they were reachable, the largest strain not between pins is {:.2} %",
+            summary.frames_limits_unreachable,
+            summary.frames - 1,
+            summary.max_free_strain_reachable * 100.0
+        );
+    }
     println!(
         "the cloth moves {:.1} mm/s on average over the last second (0 when it has come to rest)",
         summary.mean_speed_last_second_m_per_s * 1e3

@@ -26,6 +26,7 @@ pub mod motion;
 pub mod multigrid;
 pub mod parallel;
 pub mod pcg;
+pub mod pin_reach;
 pub mod repulsion;
 pub mod snapshot;
 pub mod sparse;

@@ -58,6 +58,7 @@ use super::constraint::Constraint;
 use super::edge_system::{EdgeRow, EdgeSystem};
 use super::limit_edges::{EdgeSet, LinearisedEdges, Particles};
 use super::parallel;
+use super::pin_reach::{PinReach, ReachEdges};
 
 mod clamp;
 mod multipliers;
@@ -307,6 +308,18 @@ impl StrainLimits {
         (0..self.edges.ends.len())
             .map(|e| limit(e).map_or(f64::INFINITY, |l| (1.0 + l) * self.edges.rest_length[e]))
             .collect()
+    }
+
+    /// The reaches between the pinned particles `pins` under the limits of
+    /// `cloth`'s current fabrics ([`super::pin_reach`]); `fixed` marks
+    /// every pinned particle.
+    pub fn pin_reach(&self, cloth: &Cloth, fixed: &[bool], pins: &[u32]) -> PinReach {
+        let max_length = self.max_lengths_for(cloth);
+        let (ends, rest_length) = (&self.edges.ends, &self.edges.rest_length);
+        PinReach::new(
+            &ReachEdges { vertex_count: fixed.len(), ends, rest_length, max_length: &max_length, fixed },
+            pins,
+        )
     }
 
     /// Each edge's maximal length in use, m.

@@ -62,6 +62,7 @@ use super::motion::Placement;
 use super::motion::RigidMotion;
 use super::parallel::{self, CHUNK};
 use super::pcg::{FilteredSystem, PcgReport, PcgSettings, PcgWorkspace, Preconditioner, SystemChange};
+use super::pin_reach::{PinReach, Unreachable};
 use super::repulsion::Repulsion;
 use super::repulsion::RestingPair;
 use super::snapshot::{Snapshot, SnapshotError, from_arrays, to_arrays};
@@ -211,6 +212,9 @@ pub struct Simulator {
     collision: Option<CollisionPipeline>,
     strain_limits: Option<StrainLimits>,
     strain_limiting: StrainLimiting,
+    /// How far apart the pins may be with the limits still reachable (none
+    /// without pins or limits).
+    pin_reach: Option<PinReach>,
     /// A change of fabric being blended in.
     ramp: Option<Ramp>,
     x: Vec<Vector3<f64>>,
@@ -266,12 +270,14 @@ impl Simulator {
         )?;
         let collision = collision_pipeline(&cloth, &pins, &colliders, &meshes, &settings);
         let strain_limits = StrainLimits::new(&cloth, settings.strain_limiting);
+        let pin_reach = pin_reach(&cloth, strain_limits.as_ref(), &pins, &fixed);
         let glued = pins.iter().any(|p| matches!(p.target, PinTarget::OnMesh { .. }));
         let attachment_meshes = if glued { meshes } else { Vec::new() };
         Ok(Simulator {
             layout,
             strain_limits,
             strain_limiting: settings.strain_limiting,
+            pin_reach,
             ramp: None,
             preconditioner,
             collision,
@@ -392,7 +398,15 @@ impl Simulator {
         let to_lengths = self.strain_limits.as_ref().map_or_else(Vec::new, |l| l.max_lengths_for(&self.cloth));
         let to = (to_particles, SpringCoefficients::new(&self.cloth), to_lengths);
         self.ramp = Some(Ramp::new(&self.particles, &self.springs, self.strain_limits.as_ref(), &self.x, to));
+        self.pin_reach = pin_reach(&self.cloth, self.strain_limits.as_ref(), &self.pins, &self.fixed);
         Ok(())
+    }
+
+    /// The two pins furthest beyond the length the cloth between them may
+    /// reach now, when any are: where the strain limits cannot be met
+    /// ([`crate::sim::pin_reach`]), whatever the solver does.
+    pub fn unreachable_limits(&self) -> Option<Unreachable> {
+        self.pin_reach.as_ref()?.worst(&self.x, STRAIN_TOLERANCE)
     }
 
     /// Sets the linear solver's relative tolerance (unitless, 0 < t < 1) from
@@ -407,4 +421,10 @@ impl Simulator {
     pub fn has_animated_bodies(&self) -> bool {
         self.collision.as_ref().is_some_and(CollisionPipeline::has_animated_bodies)
     }
+}
+
+/// The reaches between `pins` under `limits` (none without either).
+fn pin_reach(cloth: &Cloth, limits: Option<&StrainLimits>, pins: &[Pin], fixed: &[bool]) -> Option<PinReach> {
+    let vertices: Vec<u32> = pins.iter().map(|p| p.vertex).collect();
+    limits.filter(|_| !vertices.is_empty()).map(|l| l.pin_reach(cloth, fixed, &vertices))
 }
