@@ -55,7 +55,20 @@ mod tests {
         let examples = examples_in(&examples_folder());
         let named =
             |kind| -> Vec<&str> { examples.iter().filter(|e| e.kind == kind).map(|e| e.name.as_str()).collect() };
-        let hard = ["bad_mesh", "fast_body", "large_step", "needles", "projectile", "spin_sphere", "stiff", "twist"];
+        let hard = [
+            "bad_mesh",
+            "fast_body",
+            "large_step",
+            "needles",
+            "pinch_drag",
+            "projectile",
+            "pull_through_funnel",
+            "sleeve_elbow",
+            "spin_sphere",
+            "spin_sphere_grip",
+            "stiff",
+            "twist",
+        ];
         assert_eq!(named(SceneKind::HardCase), hard);
         assert!(named(SceneKind::Demo).contains(&"skirt_walk"));
         assert!(examples.iter().all(|e| !e.description.is_empty()), "every example says what it is");
