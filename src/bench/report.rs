@@ -6,10 +6,10 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{BenchResult, Suite};
 use super::accuracy::{self, SceneSweep};
 use super::plots::PlotError;
 use super::soak::SoakReport;
+use super::{BenchResult, Suite};
 use crate::io::atomic::{WriteError, write_file};
 
 /// Writes `bench.csv`, `bench.md` and the charts (`strain_over_time` and
@@ -17,7 +17,6 @@ use crate::io::atomic::{WriteError, write_file};
 /// suites (`--suite all`), each suite's charts also go into `dir/SUITE/`.
 pub fn write_results(dir: &Path, results: &[BenchResult]) -> Result<(), PlotError> {
     let mut suites: Vec<Suite> = results.iter().flat_map(|r| r.suites.iter().copied()).collect();
-    suites.dedup();
     suites.sort_by_key(|suite| suite.name());
     suites.dedup();
     if suites.len() > 1 {
