@@ -22,7 +22,7 @@ use nalgebra::Vector3;
 /// Pins whose reaches are kept: beyond this many, every k-th pin in index
 /// order (neighbouring pins of a ring or a glued band have nearly the same
 /// reaches, so spaced pins find the same pairs).
-pub const MAX_CHECKED_PINS: usize = 256;
+pub const MAX_CHECKED_PINS: usize = 64;
 
 /// The reaches between pairs of pins.
 #[derive(Clone, Debug, Default)]

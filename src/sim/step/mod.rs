@@ -36,6 +36,7 @@ mod report;
 mod stages;
 mod strain;
 
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -213,8 +214,10 @@ pub struct Simulator {
     strain_limits: Option<StrainLimits>,
     strain_limiting: StrainLimiting,
     /// How far apart the pins may be with the limits still reachable (none
-    /// without pins or limits).
-    pin_reach: Option<PinReach>,
+    /// without pins or limits): made the first time a frame asks, and again
+    /// after a fabric change, so that neither building a simulator nor
+    /// dragging a slider pays for its searches.
+    pin_reach: OnceLock<Option<PinReach>>,
     /// A change of fabric being blended in.
     ramp: Option<Ramp>,
     x: Vec<Vector3<f64>>,
@@ -270,14 +273,13 @@ impl Simulator {
         )?;
         let collision = collision_pipeline(&cloth, &pins, &colliders, &meshes, &settings);
         let strain_limits = StrainLimits::new(&cloth, settings.strain_limiting);
-        let pin_reach = pin_reach(&cloth, strain_limits.as_ref(), &pins, &fixed);
         let glued = pins.iter().any(|p| matches!(p.target, PinTarget::OnMesh { .. }));
         let attachment_meshes = if glued { meshes } else { Vec::new() };
         Ok(Simulator {
             layout,
             strain_limits,
             strain_limiting: settings.strain_limiting,
-            pin_reach,
+            pin_reach: OnceLock::new(),
             ramp: None,
             preconditioner,
             collision,
@@ -398,7 +400,7 @@ impl Simulator {
         let to_lengths = self.strain_limits.as_ref().map_or_else(Vec::new, |l| l.max_lengths_for(&self.cloth));
         let to = (to_particles, SpringCoefficients::new(&self.cloth), to_lengths);
         self.ramp = Some(Ramp::new(&self.particles, &self.springs, self.strain_limits.as_ref(), &self.x, to));
-        self.pin_reach = pin_reach(&self.cloth, self.strain_limits.as_ref(), &self.pins, &self.fixed);
+        self.pin_reach = OnceLock::new();
         Ok(())
     }
 
@@ -406,7 +408,9 @@ impl Simulator {
     /// reach now, when any are: where the strain limits cannot be met
     /// ([`crate::sim::pin_reach`]), whatever the solver does.
     pub fn unreachable_limits(&self) -> Option<Unreachable> {
-        self.pin_reach.as_ref()?.worst(&self.x, STRAIN_TOLERANCE)
+        let reach =
+            self.pin_reach.get_or_init(|| pin_reach(&self.cloth, self.strain_limits.as_ref(), &self.pins, &self.fixed));
+        reach.as_ref()?.worst(&self.x, STRAIN_TOLERANCE)
     }
 
     /// Sets the linear solver's relative tolerance (unitless, 0 < t < 1) from
