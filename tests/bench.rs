@@ -58,6 +58,31 @@ fn bench_writes_a_full_csv_the_report_and_non_empty_charts() {
     }
 }
 
+/// Results of several suites (`--suite all`) also get each suite's charts, in
+/// a folder named after it, drawn from that suite's cases only.
+#[test]
+fn results_of_several_suites_get_each_suites_charts() {
+    let scene = tiny_drape_sphere();
+    let (summary, _) = measure(&scene, Some(6), None).unwrap();
+    let case = |name: &str, suites| BenchResult {
+        case: name.into(),
+        summary: summary.clone(),
+        peak_memory_mib: None,
+        errors: None,
+        suites,
+    };
+    let results = [case("shared", vec![Suite::Paper, Suite::Collisions]), case("hard only", vec![Suite::Hard])];
+    let dir = tempfile::tempdir().unwrap();
+    write_results(dir.path(), &results).unwrap();
+    for (suite, has, lacks) in
+        [("paper", "shared", "hard only"), ("collisions", "shared", "hard only"), ("hard", "hard only", "shared")]
+    {
+        let svg = std::fs::read_to_string(dir.path().join(suite).join("strain_over_time.svg")).unwrap();
+        assert!(svg.contains(has) && !svg.contains(lacks), "{suite}'s chart");
+        assert!(dir.path().join(suite).join("time_per_stage.png").exists());
+    }
+}
+
 #[test]
 fn the_error_is_zero_against_itself_and_grows_with_the_step() {
     let scene = tiny_drape_sphere();
