@@ -263,6 +263,8 @@ fn cases(suite: Suite) -> Vec<Case> {
 /// case runs without an error figure), then the case itself. A case whose
 /// simulation stops is logged with the reason and kept, measured over the
 /// frames before the stop and named so in every table; the suite goes on.
+/// A case that several of `all`'s suites list (the same name) runs once,
+/// measured as its first suite asks, and is tagged with each of them.
 pub fn run(suite: Suite, frames: Option<usize>, log: impl Fn(&str)) -> Result<Vec<BenchResult>, BenchError> {
     let mut results: Vec<BenchResult> = Vec::new();
     let mut names = Vec::new();
