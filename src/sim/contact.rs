@@ -26,7 +26,7 @@
 //! correction after the solve would fight the stiff springs around the particle
 //! and blow up.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 
 use super::colliders::Collider;
 use super::constraint::Constraint;
@@ -125,36 +125,33 @@ fn resolve_against(
     window: StepWindow,
 ) -> Outcome {
     let band = surface.resting_band();
-    let pose_start = collider.world_from_local(window.t0);
     let pose_end = collider.world_from_local(window.t1);
-    let from = pose_start.inverse_transform_point(&(*start).into()).coords;
-    let to = pose_end.inverse_transform_point(&(*end).into()).coords;
-    let Some(t) = collider.shape.first_time_within(&from, &to, surface.thickness) else {
+    let Some(touch) = collider.first_touch(start, end, (window.t0, window.t1), surface.thickness) else {
+        let to = pose_end.inverse_transform_point(&(*end).into()).coords;
         let resting = collider.shape.signed_distance(&to).distance <= band;
         return Outcome { touched: false, resting };
     };
-    let touch = from + (to - from) * t;
     // Normal and surface velocity where and when the particle touches.
-    let touch_time = window.t0 + t * window.h();
+    let touch_time = window.t0 + touch.t * window.h();
     let pose_touch = collider.world_from_local(touch_time);
-    let normal = pose_touch.rotation * collider.shape.signed_distance(&touch).normal;
-    let touch_world = (pose_touch * nalgebra::Point3::from(touch)).coords;
+    let normal = pose_touch.rotation * collider.shape.signed_distance(&touch.local).normal;
+    let touch_world = (pose_touch * Point3::from(touch.local)).coords;
     let surface_velocity = collider.surface_velocity(&touch_world, touch_time);
     let relative = *velocity - surface_velocity;
     let approach = relative.dot(&normal);
-    let mut local_end = to;
+    let mut world_end = *end;
     if approach < 0.0 {
         let mu = collider.friction.unwrap_or(surface.friction);
         *velocity = surface_velocity + coulomb_friction(relative - normal * approach, -approach, mu);
-        // After the touch the particle moves with the surface plus its slide.
-        let slide = pose_touch.rotation.inverse() * (*velocity - surface_velocity);
-        local_end = touch + slide * ((1.0 - t) * window.h());
+        // After the touch the particle moves on with its new velocity.
+        world_end = touch_world + *velocity * ((1.0 - touch.t) * window.h());
     }
+    let mut local_end = pose_end.inverse_transform_point(&world_end.into()).coords;
     let depth = collider.shape.signed_distance(&local_end);
     if depth.distance < surface.thickness {
         local_end += depth.normal * (surface.thickness - depth.distance);
     }
-    *end = (pose_end * nalgebra::Point3::from(local_end)).coords;
+    *end = (pose_end * Point3::from(local_end)).coords;
     Outcome { touched: true, resting: depth.distance <= band }
 }
 
@@ -208,21 +205,18 @@ impl SurfaceContact {
             if !collider.may_come_within(start, end, thickness) {
                 return None;
             }
-            let from = collider.world_from_local(window.t0).inverse_transform_point(&(*start).into()).coords;
-            let to = collider.world_from_local(window.t1).inverse_transform_point(&(*end).into()).coords;
-            let t = collider.shape.first_time_within(&from, &to, thickness)?;
-            let touch = from + (to - from) * t;
-            let local_normal = collider.shape.signed_distance(&touch).normal;
-            let approach = (to - from).dot(&local_normal);
+            let touch = collider.first_touch(start, end, (window.t0, window.t1), thickness)?;
+            let local_normal = collider.shape.signed_distance(&touch.local).normal;
+            let approach = touch.approach.dot(&local_normal);
             if approach >= 0.0 {
                 return None;
             }
-            let pose_touch = collider.world_from_local(window.t0 + t * window.h());
+            let pose_touch = collider.world_from_local(window.t0 + touch.t * window.h());
             Some(SurfaceContact {
                 collider: index as u32,
                 normal: pose_touch.rotation * local_normal,
                 surface_velocity: collider.surface_velocity(start, window.t0),
-                normal_speed: t * approach / window.h(),
+                normal_speed: touch.t * approach / window.h(),
             })
         })
     }
@@ -372,6 +366,32 @@ mod tests {
         // Surface speed there is 2π·0.3 ≈ 1.9 m/s towards −Z; friction gives μ·1 m/s of it.
         assert!((velocity.z + 0.5).abs() < 0.01, "{velocity}");
         assert!(velocity.x.abs() < 0.02, "{velocity}");
+    }
+
+    /// A sphere that starts spinning at 2 turns/s under a particle resting on
+    /// its side pulls it by friction no more than μ times the particle's own
+    /// approach: the particle is not carried along with the surface.
+    #[test]
+    fn a_sphere_spun_abruptly_drags_a_resting_particle_only_by_friction() {
+        let spin = RigidMotion::from_spec(
+            &MotionSpec { angular_velocity_deg_per_s: [0.0, 720.0, 0.0], ..Default::default() },
+            Vector3::zeros(),
+        );
+        let ball = Collider {
+            name: "ball".into(),
+            shape: Shape::Sphere { radius: 0.3 },
+            placement: Placement { rest_pose: Isometry3::identity(), motion: Some(spin) },
+            friction: Some(0.8),
+        };
+        let window = StepWindow { t0: 0.0, t1: 1.0 / 60.0 };
+        let start = Vector3::new(0.3021, 0.0, 0.0);
+        let mut velocity = Vector3::new(-0.1, 0.0, 0.0);
+        let mut end = start + velocity * window.h();
+        let (touched, resting) = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ball.clone()], window);
+        assert_eq!((touched, resting), (1, Some(0)));
+        assert!(velocity.z.abs() <= 0.8 * 0.1 + 1e-5 && velocity.z < -0.07, "dragged by μΔv_N: {velocity}");
+        assert!((end - start).norm() < 0.002, "the particle stays near where it was: {end}");
+        assert!(ball.signed_distance_at(&end, window.t1) >= 0.002 - 1e-12);
     }
 
     /// Sliding: the damping force is μN against the sliding direction; nearly
