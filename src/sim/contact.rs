@@ -1,8 +1,8 @@
 //! Cloth particles against analytic colliders, after the implicit solve.
 //!
 //! Each particle's straight path over the step is followed in each collider's
-//! own frame (the collider's pose at the start of the step for the start point,
-//! at the end for the end point), so a moving or spinning collider is seen
+//! own frame (in pieces while the collider turns:
+//! [`Collider::first_touch`]), so a moving or spinning collider is seen
 //! relative to the cloth and a fast one cannot jump over a particle. At the
 //! first time the particle comes within the thickness (normal and surface
 //! velocity taken at that moment), its velocity relative to
@@ -13,8 +13,9 @@
 //! v_T = max(1 − μ Δv_N / |v_T_pre|, 0) · v_T_pre
 //! ```
 //!
-//! The particle moves freely up to the contact and with its new velocity after,
-//! and ends no closer than the thickness to the surface.
+//! The particle moves freely up to the contact and with its new velocity after
+//! (straight, in world: friction alone decides how far a turning surface drags
+//! it), and ends no closer than the thickness to the surface.
 //!
 //! A particle that ends a step resting on a collider starts the next step
 //! constrained to it ([`SurfaceContact`]): its velocity along the normal is
