@@ -69,10 +69,21 @@ impl ParticleSurface {
     }
 }
 
+/// What the analytic colliders did to one particle over a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParticleContacts {
+    /// Colliders it came within its thickness of.
+    pub touches: u32,
+    /// The last collider it ends the step resting on.
+    pub resting_on: Option<u32>,
+    /// The sum of the outward unit normals of the colliders it touched (zero
+    /// when none did): the direction they pushed it off along.
+    pub pushed_along: Vector3<f64>,
+}
+
 /// Resolves one particle against every collider in order. `start` is the
 /// position at the start of the step; `end` and `velocity` are the solver's
-/// candidates and are corrected in place. Returns the number of contacts and
-/// the last collider the particle ends the step resting on.
+/// candidates and are corrected in place.
 pub fn resolve_particle(
     start: &Vector3<f64>,
     end: &mut Vector3<f64>,
@@ -80,20 +91,22 @@ pub fn resolve_particle(
     surface: ParticleSurface,
     colliders: &[Collider],
     window: StepWindow,
-) -> (u32, Option<u32>) {
-    let mut contacts = 0;
-    let mut resting = None;
+) -> ParticleContacts {
+    let mut contacts = ParticleContacts { touches: 0, resting_on: None, pushed_along: Vector3::zeros() };
     for (c, collider) in colliders.iter().enumerate() {
         if !collider.may_come_within(start, end, surface.resting_band()) {
             continue;
         }
         let outcome = resolve_against(start, end, velocity, surface, collider, window);
-        contacts += u32::from(outcome.touched);
+        if let Some(normal) = outcome.touched {
+            contacts.touches += 1;
+            contacts.pushed_along += normal;
+        }
         if outcome.resting {
-            resting = Some(c as u32);
+            contacts.resting_on = Some(c as u32);
         }
     }
-    (contacts, resting)
+    contacts
 }
 
 /// Coulomb friction (eq. 15): the tangential relative velocity after a normal
@@ -108,8 +121,9 @@ pub fn coulomb_friction(tangential: Vector3<f64>, normal_change: f64, mu: f64) -
 
 /// What a collider did to a particle over a step.
 struct Outcome {
-    /// The particle came within its thickness during the step.
-    touched: bool,
+    /// The particle came within its thickness during the step: the
+    /// surface's outward unit normal at the touch.
+    touched: Option<Vector3<f64>>,
     /// It ends within the resting band ([`ParticleSurface::resting_band`]): it starts the
     /// next step held on the surface (and is let go there if the surface
     /// would have to pull it).
@@ -130,7 +144,7 @@ fn resolve_against(
     let Some(touch) = collider.first_touch(start, end, (window.t0, window.t1), surface.thickness) else {
         let to = pose_end.inverse_transform_point(&(*end).into()).coords;
         let resting = collider.shape.signed_distance(&to).distance <= band;
-        return Outcome { touched: false, resting };
+        return Outcome { touched: None, resting };
     };
     // Normal and surface velocity where and when the particle touches.
     let touch_time = window.t0 + touch.t * window.h();
@@ -153,7 +167,7 @@ fn resolve_against(
         local_end += depth.normal * (surface.thickness - depth.distance);
     }
     *end = (pose_end * Point3::from(local_end)).coords;
-    Outcome { touched: true, resting: depth.distance <= band }
+    Outcome { touched: Some(normal), resting: depth.distance <= band }
 }
 
 /// A particle held to a collider's surface in the solve: its velocity along
@@ -271,7 +285,8 @@ mod tests {
         let mut velocity = Vector3::new(0.0, -3.0, 0.0);
         let mut end = start + velocity * WINDOW.h();
         let contacts = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
-        assert_eq!(contacts, (1, Some(0)), "touching and resting on the ground");
+        assert_eq!((contacts.touches, contacts.resting_on), (1, Some(0)), "touching and resting on the ground");
+        assert_eq!(contacts.pushed_along, Vector3::y());
         assert_eq!(velocity, Vector3::zeros(), "inelastic, no tangential motion");
         assert!((end.y - 0.002).abs() < 1e-12, "{end}");
     }
@@ -299,9 +314,9 @@ mod tests {
         let mut velocity = Vector3::new(1.0, 2.0, 0.0);
         let mut end = start + velocity * WINDOW.h();
         let expected = end;
-        let (_, resting) = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
+        let contacts = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
         assert_eq!((end, velocity), (expected, Vector3::new(1.0, 2.0, 0.0)));
-        assert_eq!(resting, None, "it leaves the surface");
+        assert_eq!(contacts.resting_on, None, "it leaves the surface");
     }
 
     /// A particle gliding along the ground a little above its thickness, within
@@ -313,13 +328,13 @@ mod tests {
         let mut velocity = Vector3::new(0.5, 0.0, 0.0);
         let mut end = start + velocity * WINDOW.h();
         let glide = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
-        assert_eq!(glide, (0, Some(0)), "resting on the ground, untouched");
+        assert_eq!((glide.touches, glide.resting_on), (0, Some(0)), "resting on the ground, untouched");
         assert_eq!(velocity, Vector3::new(0.5, 0.0, 0.0));
 
         let mut velocity = Vector3::new(0.5, 0.03, 0.0);
         let mut end = start + velocity * WINDOW.h();
         let rise = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ground()], WINDOW);
-        assert_eq!(rise, (0, None), "0.25 mm above the band: free");
+        assert_eq!((rise.touches, rise.resting_on), (0, None), "0.25 mm above the band: free");
     }
 
     /// A sphere moving at 8 m/s meets a resting particle in the middle of the step
@@ -388,8 +403,8 @@ mod tests {
         let start = Vector3::new(0.3021, 0.0, 0.0);
         let mut velocity = Vector3::new(-0.1, 0.0, 0.0);
         let mut end = start + velocity * window.h();
-        let (touched, resting) = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ball.clone()], window);
-        assert_eq!((touched, resting), (1, Some(0)));
+        let contacts = resolve_particle(&start, &mut end, &mut velocity, SURFACE, &[ball.clone()], window);
+        assert_eq!((contacts.touches, contacts.resting_on), (1, Some(0)));
         assert!(velocity.z.abs() <= 0.8 * 0.1 + 1e-5 && velocity.z < -0.07, "dragged by μΔv_N: {velocity}");
         assert!((end - start).norm() < 0.002, "the particle stays near where it was: {end}");
         assert!(ball.signed_distance_at(&end, window.t1) >= 0.002 - 1e-12);

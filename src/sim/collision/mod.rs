@@ -33,6 +33,7 @@
 //! none of this; a step whose boxes do not overlap runs no narrow phase.
 
 mod adjacent;
+mod after_zones;
 pub mod bvh;
 pub mod ccd;
 mod detect;
@@ -55,6 +56,7 @@ use std::time::{Duration, Instant};
 use nalgebra::Vector3;
 
 use self::adjacent::AdjacentTriangles;
+use self::after_zones::ZONE_CORRECTIONS;
 use self::bvh::{Box3, SweptBvh};
 pub use self::detect::carried_displacement;
 use self::detect::{Detection, Job, Scope};
@@ -155,6 +157,12 @@ pub enum ResponseStage {
     Impulses,
     /// A round of rigid impact zones.
     ImpactZones,
+    /// Impact zones that left nothing crossing, whose points are now fixed
+    /// for the rest of the step ([`PassState::frozen`]): the hook may move
+    /// the rest of the cloth after them (the edges leaving a rigid zone are
+    /// stretched), and the passes and zones then run again over what it
+    /// moved ([`after_zones`]).
+    AfterZones,
 }
 
 /// What a pass hook sees and may correct: the cloth's end positions and
@@ -177,6 +185,10 @@ pub struct PassState<'a> {
     pub pushed_off: &'a [Vector3<f64>],
     /// The part of the response just run.
     pub stage: ResponseStage,
+    /// Cloth particles the response has fixed for the rest of the step (the
+    /// points impact zones moved, once they left nothing crossing): the
+    /// hook must not move them.
+    pub frozen: &'a [u32],
 }
 
 /// A correction run after every response pass and every impact-zone round,
@@ -236,6 +248,10 @@ pub struct CollisionReport {
     pub constraint_set: u32,
     /// Rounds of impact zones needed.
     pub zone_rounds: u32,
+    /// Corrections after impact zones ([`ResponseStage::AfterZones`]).
+    pub zone_corrections: u32,
+    /// Of those, the ones undone because their own zones left crossings.
+    pub corrections_undone: u32,
     /// Crossings left when the step ends (should be 0).
     pub unresolved: u32,
 }
@@ -384,6 +400,18 @@ struct Workspace {
     /// The free points joined by this step's crossings alone, which move
     /// rigidly together inside a zone whose kinematic points move apart.
     inner_zones: Zones,
+    /// The step's first detection is still to come (it is a full one).
+    fresh: bool,
+    /// Per cloth particle: an impact zone moved it this step.
+    zoned: Vec<bool>,
+    /// The cloth particles fixed after impact zones ([`PassState::frozen`]).
+    frozen: Vec<u32>,
+    /// The cloth's end positions and velocities as the step's first zones
+    /// left them, to undo the corrections after them.
+    zoned_end: Vec<Vector3<f64>>,
+    zoned_velocity: Vec<Vector3<f64>>,
+    /// The last resolve corrected after zones and kept it (so far).
+    correction_kept: bool,
     /// Which points are the root of a zone being made rigid this round.
     zone_root: Vec<bool>,
     /// `(zone root, member)` of every point in such a zone, sorted.
@@ -479,51 +507,16 @@ impl CollisionPipeline {
         let clock = Instant::now();
         self.load(&cloth, window);
         report.refit += clock.elapsed();
-        let mut first = true;
-        let mut settled = false;
-        let mut last_shortfall = f64::INFINITY;
-        for pass in 0..self.settings.passes {
-            if pass == 0 {
-                self.detect(Detection::Proximity, Scope::All, &mut report);
-            } else {
-                self.detect_again(Detection::Proximity, &mut report);
-            }
-            if first {
-                report.contacts = self.ws.contacts.len() as u32;
-                first = false;
-            }
-            if self.ws.contacts.is_empty() {
-                settled = true;
+        let mut zoned =
+            !self.impulse_passes(window, after_pass, &mut report) && self.zones(window, after_pass, &mut report);
+        while zoned && report.zone_corrections < ZONE_CORRECTIONS && self.correct_after_zones(after_pass) {
+            report.zone_corrections += 1;
+            zoned =
+                !self.impulse_passes(window, after_pass, &mut report) && self.zones(window, after_pass, &mut report);
+            if report.unresolved > 0 {
+                self.undo_correction(&mut report);
                 break;
             }
-            let progress = self.settings.pass_progress;
-            if progress > 0.0 {
-                let shortfall = self.total_shortfall(window.h());
-                if shortfall > (1.0 - progress) * last_shortfall {
-                    break;
-                }
-                last_shortfall = shortfall;
-            }
-            let clock = Instant::now();
-            report.passes += 1;
-            let (constraint_set, acted) = self.respond_pass(window.h());
-            report.constraint_set = constraint_set;
-            // Every contact within reach was already satisfied, so nothing
-            // moved and detecting again would find the same contacts; what
-            // the hook corrected after the last pass is what this detection
-            // checked. That does not prove nothing crosses (the deficit is
-            // linearised along the hit normal), so the impact zones still
-            // look for crossings.
-            if acted {
-                self.run_hook(after_pass, ResponseStage::Impulses);
-            }
-            report.response += clock.elapsed();
-            if !acted {
-                break;
-            }
-        }
-        if !settled {
-            (report.zone_rounds, report.unresolved) = self.impact_zones(window, after_pass, &mut report);
         }
         cloth.end.copy_from_slice(&self.ws.end[..n]);
         cloth.velocity.copy_from_slice(&self.ws.velocity[..n]);

@@ -6,8 +6,8 @@ use super::*;
 
 impl CollisionPipeline {
     /// Runs the pass hook after `stage` on the cloth's end positions and
-    /// velocities and marks the points it moved.
-    pub(super) fn run_hook(&mut self, hook: PassHook, stage: ResponseStage) {
+    /// velocities and marks the points it moved. Returns whether it moved any.
+    pub(super) fn run_hook(&mut self, hook: PassHook, stage: ResponseStage) -> bool {
         let n = self.particles.len();
         let ws = &mut self.ws;
         ws.before_hook.clear();
@@ -18,20 +18,76 @@ impl CollisionPipeline {
             moved: &ws.moved[..n],
             pushed_off: &ws.pushed_off[..n],
             stage,
+            frozen: &ws.frozen,
         };
-        let corrected = hook(state);
-        if corrected {
-            let hold = stage == ResponseStage::ImpactZones;
-            for (i, (before, after)) in ws.before_hook.iter().zip(&ws.end[..n]).enumerate() {
-                if before != after {
-                    ws.moved[i] = true;
-                    if hold {
-                        ws.held[i] = Some(Kinematic::Deforming);
-                        ws.inverse_mass[i] = 0.0;
-                    }
+        if !hook(state) {
+            return false;
+        }
+        let hold = stage == ResponseStage::ImpactZones;
+        let mut any = false;
+        for (i, (before, after)) in ws.before_hook.iter().zip(&ws.end[..n]).enumerate() {
+            if before != after {
+                ws.moved[i] = true;
+                any = true;
+                if hold {
+                    ws.held[i] = Some(Kinematic::Deforming);
+                    ws.inverse_mass[i] = 0.0;
                 }
             }
         }
+        any
+    }
+
+    /// Detect → respond passes until nothing needs an impulse, the passes
+    /// run out or (with `pass_progress`) stop gaining, each followed by the
+    /// pass hook. The step's first detection is full, later ones only of
+    /// what moved. Returns whether the last detection found no contact at
+    /// all (nothing is left for the impact zones).
+    pub(super) fn impulse_passes(
+        &mut self,
+        window: StepWindow,
+        after_pass: PassHook,
+        report: &mut CollisionReport,
+    ) -> bool {
+        let mut last_shortfall = f64::INFINITY;
+        for _ in 0..self.settings.passes {
+            if self.ws.fresh {
+                self.detect(Detection::Proximity, Scope::All, report);
+                report.contacts = self.ws.contacts.len() as u32;
+                self.ws.fresh = false;
+            } else {
+                self.detect_again(Detection::Proximity, report);
+            }
+            if self.ws.contacts.is_empty() {
+                return true;
+            }
+            let progress = self.settings.pass_progress;
+            if progress > 0.0 {
+                let shortfall = self.total_shortfall(window.h());
+                if shortfall > (1.0 - progress) * last_shortfall {
+                    break;
+                }
+                last_shortfall = shortfall;
+            }
+            let clock = Instant::now();
+            report.passes += 1;
+            let (constraint_set, acted) = self.respond_pass(window.h());
+            report.constraint_set = constraint_set;
+            // Every contact within reach was already satisfied, so nothing
+            // moved and detecting again would find the same contacts; what
+            // the hook corrected after the last pass is what this detection
+            // checked. That does not prove nothing crosses (the deficit is
+            // linearised along the hit normal), so the impact zones still
+            // look for crossings.
+            if acted {
+                self.run_hook(&mut *after_pass, ResponseStage::Impulses);
+            }
+            report.response += clock.elapsed();
+            if !acted {
+                break;
+            }
+        }
+        false
     }
 
     /// A detection after a response that gives the same contacts as a full
@@ -81,6 +137,11 @@ impl CollisionPipeline {
         ws.obstacle_impulse.resize(self.particles.len(), 0.0);
         ws.held.clear();
         ws.held.resize(cloth.start.len(), None);
+        ws.zoned.clear();
+        ws.zoned.resize(cloth.start.len(), false);
+        ws.frozen.clear();
+        ws.correction_kept = false;
+        ws.fresh = true;
     }
 
     /// How far short of their thickness the contacts would end the step,

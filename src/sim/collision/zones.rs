@@ -70,6 +70,11 @@ impl CollisionPipeline {
                 self.carry_or_join(c, window);
             }
             self.group_zones(&crossings);
+            for &(_, i) in &self.ws.zone_members {
+                if let Some(zoned) = self.ws.zoned.get_mut(i as usize) {
+                    *zoned = true;
+                }
+            }
             let mut start = 0;
             while start < self.ws.zone_members.len() {
                 let root = self.ws.zone_members[start].0;

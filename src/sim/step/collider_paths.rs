@@ -30,8 +30,9 @@ impl<'a> ColliderPaths<'a> {
     /// Resolves every free particle `selected` (by index and proposed end)
     /// from its start to its proposed `end` (m, corrected in place with its
     /// `velocity`, m/s) against the analytic colliders, writing its contact
-    /// count and the collider it ends resting on. Returns the contacts of the
-    /// selected particles and whether any end moved.
+    /// count, the collider it ends resting on and the normals it was pushed
+    /// off along (zero for the others). Returns the contacts of the selected
+    /// particles and whether any end moved.
     pub(super) fn resolve(
         &self,
         end: &mut [Vector3<f64>],
@@ -39,6 +40,7 @@ impl<'a> ColliderPaths<'a> {
         selected: impl Fn(usize, &Vector3<f64>) -> bool + Sync,
         contacts: &mut [u32],
         resting_on: &mut [u32],
+        pushed: &mut [Vector3<f64>],
     ) -> (u32, bool) {
         if self.colliders.is_empty() {
             return (0, false);
@@ -46,9 +48,11 @@ impl<'a> ColliderPaths<'a> {
         end.par_iter_mut()
             .zip(velocity.par_iter_mut())
             .zip(contacts.par_iter_mut().zip(resting_on.par_iter_mut()))
+            .zip(pushed.par_iter_mut())
             .enumerate()
             .with_min_len(CHUNK)
-            .map(|(i, ((end, velocity), (contacts, resting)))| {
+            .map(|(i, (((end, velocity), (contacts, resting)), pushed))| {
+                *pushed = Vector3::zeros();
                 if !selected(i, end) {
                     return (0, false);
                 }
@@ -58,9 +62,10 @@ impl<'a> ColliderPaths<'a> {
                 }
                 let proposed = *end;
                 let surface = self.surfaces[i];
-                let (count, on) = resolve_particle(&self.start[i], end, velocity, surface, self.colliders, self.window);
-                (*contacts, *resting) = (count, on.unwrap_or(NO_COLLIDER));
-                (count, *end != proposed)
+                let found = resolve_particle(&self.start[i], end, velocity, surface, self.colliders, self.window);
+                (*contacts, *resting, *pushed) =
+                    (found.touches, found.resting_on.unwrap_or(NO_COLLIDER), found.pushed_along);
+                (found.touches, *end != proposed)
             })
             .reduce(|| (0, false), |a, b| (a.0 + b.0, a.1 || b.1))
     }

@@ -166,6 +166,12 @@ struct Workspace {
     /// End positions before a strain projection inside the collision
     /// response, to see which particles it moved.
     before_projection: Vec<Vector3<f64>>,
+    /// The step's constraints with the particles the collision response
+    /// fixed after impact zones made `Fixed`, for the projections after them.
+    frozen_constraints: Vec<Constraint>,
+    /// Per particle, the sum of the analytic colliders' normals it was
+    /// pushed off along in their last resolve (zero where none touched).
+    pushed_by_colliders: Vec<Vector3<f64>>,
     /// The particles the last impulse pass pushed off a mesh collider or a
     /// thin prop, with the unit normal away from it, for the projection
     /// after it.

@@ -98,47 +98,92 @@ impl Simulator {
             let paths = ColliderPaths::new(&self.x, &self.fixed, &self.surfaces, &self.colliders, window);
             let (contacts, resting_on) = (&mut self.ws.contacts, &mut self.resting_on);
             let before_projection = &mut self.ws.before_projection;
-            let holds = &mut self.ws.holds;
+            let (holds, frozen_constraints) = (&mut self.ws.holds, &mut self.ws.frozen_constraints);
+            let pushed = &mut self.ws.pushed_by_colliders;
+            pushed.resize(self.x.len(), Vector3::zeros());
             // Limits that pins make unreachable (the first projection
             // stalled) are still approached after every pass, keeping
             // partial results; a stall without pins (cloth tented on a
             // sharp apex) leaves the passes unprojected, as the partial
-            // projections stretched `pillars`' cone apex further.
+            // projections stretched `pillars`' cone apex further. After
+            // impact zones the rest of the cloth is always moved after the
+            // zones' fixed points, keeping what that gains.
             let pulled_apart = projection.stalled && !self.pins.is_empty();
+            let mut after_zones = false;
             let mut after_pass = |pass: PassState| {
+                after_zones |= pass.stage == ResponseStage::AfterZones;
+                let PassState { end, velocity, moved, pushed_off, stage, frozen } = pass;
+                let constraints = match frozen {
+                    [] => constraints,
+                    frozen => {
+                        frozen_constraints.clone_from(constraints);
+                        frozen.iter().for_each(|&i| frozen_constraints[i as usize] = Constraint::Fixed);
+                        &frozen_constraints[..]
+                    }
+                };
+                let gave_up = projection.abandoned || projection.fell_back || (projection.stalled && !pulled_apart);
+                let may_project = stage != ResponseStage::ImpactZones && (after_zones || !gave_up);
                 let mut projected = false;
                 before_projection.clear();
                 if let Some(limits) = limits.as_mut()
-                    && pass.stage == ResponseStage::Impulses
+                    && may_project
+                    && limits.excess_strain(end) > STRAIN_TOLERANCE
                 {
-                    let gave_up = projection.abandoned || projection.fell_back || (projection.stalled && !pulled_apart);
-                    if !gave_up && limits.excess_strain(pass.end) > STRAIN_TOLERANCE {
-                        before_projection.extend_from_slice(pass.end);
-                        holds.clear();
-                        holds.extend(
-                            pass.pushed_off
-                                .iter()
-                                .enumerate()
-                                .filter_map(|(i, n)| n.try_normalize(PUSH_SUM_MIN).map(|n| (i as u32, n))),
-                        );
-                        let state = ProjectedState { x: pass.end, v: pass.velocity, constraints, mass, h };
-                        let report = if pulled_apart {
-                            limits.project_partial(state, holds)
-                        } else {
-                            limits.project_holding(state, holds)
-                        };
-                        projection.add(&report);
-                        projected = !report.abandoned;
+                    before_projection.extend_from_slice(end);
+                    holds.clear();
+                    if stage == ResponseStage::Impulses {
+                        holds.extend(normalised_pushes(pushed_off));
                     }
+                    let state = ProjectedState { x: end, v: velocity, constraints, mass, h };
+                    let report = if pulled_apart || after_zones {
+                        limits.project_partial(state, holds)
+                    } else {
+                        limits.project_holding(state, holds)
+                    };
+                    projection.add(&report);
+                    projected = !report.abandoned;
                 }
                 // What the response or the projection moved goes through the
                 // analytic colliders again, before the next detection sees it.
-                let (moved, before_projection) = (pass.moved, &*before_projection);
-                let again = |i: usize, end: &Vector3<f64>| moved[i] || (projected && before_projection[i] != *end);
-                let (_, collided) = paths.resolve(pass.end, pass.velocity, again, contacts, resting_on);
-                projected || collided
+                let before = &*before_projection;
+                let again = |i: usize, end: &Vector3<f64>| moved[i] || (projected && before[i] != *end);
+                let (_, collided) = paths.resolve(end, velocity, again, contacts, resting_on, pushed);
+                // Friction or a push-off after the projection may stretch an
+                // edge: the projection again, holding what the colliders
+                // pushed off along their normals, so a stretching friction
+                // gives way (the cloth slips), and the colliders again for
+                // what that moved.
+                let mut reprojected = false;
+                if let Some(limits) = limits.as_mut()
+                    && collided
+                    && may_project
+                    && limits.excess_strain(end) > STRAIN_TOLERANCE
+                {
+                    before_projection.clear();
+                    before_projection.extend_from_slice(end);
+                    holds.clear();
+                    holds.extend(normalised_pushes(pushed));
+                    let report =
+                        limits.project_holding(ProjectedState { x: end, v: velocity, constraints, mass, h }, holds);
+                    projection.add(&report);
+                    if !report.abandoned {
+                        let before = &*before_projection;
+                        paths.resolve(end, velocity, |i, end| before[i] != *end, contacts, resting_on, pushed);
+                        reprojected = true;
+                    }
+                }
+                projected || collided || reprojected
             };
             report.collision = pipeline.resolve(cloth, window, &mut after_pass);
+            // Corrections after impact zones whose own zones left the cloth
+            // more stretched than the first zones did are not kept.
+            if let (Some(limits), Some((end, velocity))) = (&self.strain_limits, pipeline.before_last_correction())
+                && limits.excess_strain(end) < limits.excess_strain(&self.ws.next_x)
+            {
+                self.ws.next_x.copy_from_slice(end);
+                self.ws.next_v.copy_from_slice(velocity);
+                report.collision.corrections_undone += 1;
+            }
             for (total, taken) in self.contact_impulse.iter_mut().zip(pipeline.obstacle_impulses()) {
                 *total += taken;
             }
@@ -351,10 +396,23 @@ impl Simulator {
     /// on. Returns the contact count.
     fn collide_with_colliders(&mut self, window: StepWindow) -> u32 {
         self.ws.contacts.resize(self.x.len(), 0);
+        self.ws.pushed_by_colliders.resize(self.x.len(), Vector3::zeros());
         let paths = ColliderPaths::new(&self.x, &self.fixed, &self.surfaces, &self.colliders, window);
         let ws = &mut self.ws;
-        let (contacts, _) =
-            paths.resolve(&mut ws.next_x, &mut ws.next_v, |_, _| true, &mut ws.contacts, &mut self.resting_on);
+        let (contacts, _) = paths.resolve(
+            &mut ws.next_x,
+            &mut ws.next_v,
+            |_, _| true,
+            &mut ws.contacts,
+            &mut self.resting_on,
+            &mut ws.pushed_by_colliders,
+        );
         contacts
     }
+}
+
+/// The unit directions of the pushes in `pushed` (sums of normals, one per
+/// particle), with their particles: the holds of a projection after them.
+fn normalised_pushes(pushed: &[Vector3<f64>]) -> impl Iterator<Item = (u32, Vector3<f64>)> + '_ {
+    pushed.iter().enumerate().filter_map(|(i, n)| n.try_normalize(PUSH_SUM_MIN).map(|n| (i as u32, n)))
 }

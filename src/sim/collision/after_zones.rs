@@ -1,0 +1,84 @@
+//! The correction after impact zones. A zone moves its points rigidly, so
+//! the edges that leave it end the step stretched by however far the zone
+//! carried them from their neighbours (a fold caught between jaws, a cloth
+//! landing on a thin bar): nothing after the zones pulls the rest of the
+//! cloth along. Once the zones leave nothing crossing, their points are
+//! fixed on the paths they gave them for the rest of the step, the pass hook
+//! corrects the rest of the cloth after them (the strain projection, with
+//! those points fixed), and the passes of impulses and the zones run again
+//! over what it moved, so the step still ends on a detection of its final
+//! positions. Edges between two fixed points are left as the zones made them.
+//! Where those zones leave crossings, the correction is undone: the step
+//! ends as the first zones left it (`pillars`' cloth tented on cone tips).
+
+use nalgebra::Vector3;
+
+use super::{CollisionPipeline, CollisionReport, Kinematic, PassHook, ResponseStage};
+use crate::sim::contact::StepWindow;
+
+/// Corrections after impact zones per step at most: each can make zones of
+/// its own, corrected in turn.
+pub(super) const ZONE_CORRECTIONS: u32 = 2;
+
+impl CollisionPipeline {
+    /// The impact zones after passes that left contacts, their rounds and
+    /// crossings left added to `report`. Returns whether they moved anything
+    /// and left nothing crossing: a correction may follow.
+    pub(super) fn zones(&mut self, window: StepWindow, after_round: PassHook, report: &mut CollisionReport) -> bool {
+        let (rounds, left) = self.impact_zones(window, after_round, report);
+        report.zone_rounds += rounds;
+        report.unresolved = left;
+        rounds > 0 && left == 0
+    }
+
+    /// Keeps the cloth as the step's first zones left it (to undo the
+    /// corrections), fixes every free cloth particle an impact zone moved this step
+    /// (kinematic on its path, as the pass hook's moves after a zone round
+    /// are) and runs the pass hook after [`ResponseStage::AfterZones`].
+    /// Returns whether the hook moved anything.
+    pub(super) fn correct_after_zones(&mut self, after_zones: PassHook) -> bool {
+        let ws = &mut self.ws;
+        if !ws.correction_kept {
+            let n = self.particles.len();
+            ws.zoned_end.clear();
+            ws.zoned_end.extend_from_slice(&ws.end[..n]);
+            ws.zoned_velocity.clear();
+            ws.zoned_velocity.extend_from_slice(&ws.velocity[..n]);
+            ws.correction_kept = true;
+        }
+        for (i, zoned) in ws.zoned.iter().enumerate() {
+            if *zoned && ws.inverse_mass[i] > 0.0 {
+                ws.held[i] = Some(Kinematic::Deforming);
+                ws.inverse_mass[i] = 0.0;
+                ws.frozen.push(i as u32);
+            }
+        }
+        self.run_hook(after_zones, ResponseStage::AfterZones)
+    }
+}
+
+impl CollisionPipeline {
+    /// Puts the cloth back where the step's first zones left it, nothing
+    /// crossing: a correction's own zones left crossings.
+    pub(super) fn undo_correction(&mut self, report: &mut CollisionReport) {
+        let ws = &mut self.ws;
+        let n = ws.zoned_end.len();
+        ws.end[..n].copy_from_slice(&ws.zoned_end);
+        ws.velocity[..n].copy_from_slice(&ws.zoned_velocity);
+        ws.contacts.clear();
+        ws.correction_kept = false;
+        report.unresolved = 0;
+        report.corrections_undone += 1;
+    }
+}
+
+impl CollisionPipeline {
+    /// The cloth's end positions and velocities (m, m/s) as the last
+    /// resolve's first zones left them, before any correction, nothing
+    /// crossing: `None` when that resolve kept no correction. A caller that measures
+    /// the correction's result worse (more strain) may take these instead.
+    pub fn before_last_correction(&self) -> Option<(&[Vector3<f64>], &[Vector3<f64>])> {
+        let ws = &self.ws;
+        ws.correction_kept.then_some((&ws.zoned_end[..], &ws.zoned_velocity[..]))
+    }
+}
