@@ -75,7 +75,7 @@ fn step_line(r: &StepReport) -> String {
         p.fell_back,
         p.excess_strain,
         c.passes,
-        c.zone_rounds,
+        format!("{}+{}c{}u", c.zone_rounds, c.zone_corrections, c.corrections_undone),
         c.constraint_set,
         c.contacts,
         ms(t.solve),

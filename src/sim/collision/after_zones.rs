@@ -20,12 +20,22 @@ use crate::sim::contact::StepWindow;
 /// its own, corrected in turn.
 pub(super) const ZONE_CORRECTIONS: u32 = 2;
 
+/// Rounds the zones after a correction may take before it is undone. Where
+/// the correction is undone anyway (`pillars`' cloth tented on cone tips,
+/// whose corrections' zones never cleared), the step's full budget made a
+/// step cost up to 6 s.
+const CORRECTION_ZONE_ROUNDS: u32 = 8;
+
 impl CollisionPipeline {
     /// The impact zones after passes that left contacts, their rounds and
     /// crossings left added to `report`. Returns whether they moved anything
     /// and left nothing crossing: a correction may follow.
     pub(super) fn zones(&mut self, window: StepWindow, after_round: PassHook, report: &mut CollisionReport) -> bool {
-        let (rounds, left) = self.impact_zones(window, after_round, report);
+        let allowed = match report.zone_corrections {
+            0 => self.settings.zone_rounds,
+            _ => CORRECTION_ZONE_ROUNDS.min(self.settings.zone_rounds),
+        };
+        let (rounds, left) = self.impact_zones(window, after_round, report, allowed);
         report.zone_rounds += rounds;
         report.unresolved = left;
         rounds > 0 && left == 0

@@ -34,13 +34,14 @@ impl CollisionPipeline {
     /// Rigid impact zones until nothing crosses (or the rounds run out), run
     /// right after the impulse passes (their last detection's contacts are in
     /// the workspace); `after_round` corrects each round's result before the
-    /// next detection checks it. Returns the rounds used and the crossings
-    /// left.
+    /// next detection checks it; at most `rounds` rounds. Returns the rounds
+    /// used and the crossings left.
     pub(super) fn impact_zones(
         &mut self,
         window: StepWindow,
         after_round: PassHook,
         report: &mut CollisionReport,
+        rounds: u32,
     ) -> (u32, u32) {
         let total = self.ws.start.len();
         self.ws.zones.reset(total);
@@ -54,7 +55,7 @@ impl CollisionPipeline {
             // otherwise drop out of the list while it still crosses).
             self.detect_again(Detection::Crossings, report);
             let crossings = std::mem::take(&mut self.ws.contacts);
-            if crossings.is_empty() || round == self.settings.zone_rounds {
+            if crossings.is_empty() || round == rounds {
                 let left = crossings.len() as u32;
                 self.ws.contacts = crossings;
                 return (round, left);
@@ -592,7 +593,7 @@ mod tests {
             pipeline.ws.moved[i] = true;
         }
         let mut report = CollisionReport::default();
-        let (rounds, left) = pipeline.impact_zones(window, &mut |_| false, &mut report);
+        let (rounds, left) = pipeline.impact_zones(window, &mut |_| false, &mut report, 40);
         assert_eq!(rounds, pipeline.settings.zone_rounds, "every round found it");
         assert!(left > 0, "and it is reported left");
         assert_eq!(&pipeline.ws.end[3..], &start[3..].iter().map(|p| p + drop).collect::<Vec<_>>()[..]);

@@ -106,12 +106,14 @@ impl Simulator {
             // partial results; a stall without pins (cloth tented on a
             // sharp apex) leaves the passes unprojected, as the partial
             // projections stretched `pillars`' cone apex further. After
-            // impact zones the rest of the cloth is always moved after the
-            // zones' fixed points, keeping what that gains.
+            // impact zones (unless the step's projection gave up already:
+            // there the zones after a correction did not clear, and cost
+            // `pillars` half its frame time) the rest of the cloth is moved
+            // after the zones' fixed points, and every later pass's
+            // projection keeps what it gains.
             let pulled_apart = projection.stalled && !self.pins.is_empty();
             let mut after_zones = false;
             let mut after_pass = |pass: PassState| {
-                after_zones |= pass.stage == ResponseStage::AfterZones;
                 let PassState { end, velocity, moved, pushed_off, stage, frozen } = pass;
                 let constraints = match frozen {
                     [] => constraints,
@@ -122,7 +124,12 @@ impl Simulator {
                     }
                 };
                 let gave_up = projection.abandoned || projection.fell_back || (projection.stalled && !pulled_apart);
-                let may_project = stage != ResponseStage::ImpactZones && (after_zones || !gave_up);
+                let may_project = match stage {
+                    ResponseStage::ImpactZones => false,
+                    ResponseStage::AfterZones => !gave_up,
+                    ResponseStage::Impulses => after_zones || !gave_up,
+                };
+                after_zones |= stage == ResponseStage::AfterZones && may_project;
                 let mut projected = false;
                 before_projection.clear();
                 if let Some(limits) = limits.as_mut()
