@@ -1,7 +1,7 @@
 //! Tension through contact (docs/hard-cases.md): the hard cases where an
 //! obstacle or a kinematic driver pulls the cloth while contact holds it,
-//! baked at their standard sizes (`pull_through_funnel` and `sleeve_elbow`
-//! are not here yet: they still end frames past the limit). At every frame end: zero intersections,
+//! baked at their standard sizes (`pull_through_funnel` is not here yet:
+//! its strain still runs away). At every frame end: zero intersections,
 //! and the cloth's own strain (edges not pinned at both ends) within the
 //! fabric's limit plus one point wherever the pins leave the limits
 //! reachable; then what each case must show.
@@ -72,6 +72,24 @@ fn friction_from_a_sphere_spun_abruptly_turns_the_cloth_without_stretching_it() 
         "the cloth turned {:.0}° while the sphere turned 1440°",
         -turned.to_degrees()
     );
+}
+
+/// A sleeve on an arm bending 90° at the elbow stays round the forearm: its
+/// cuff's centre ends within 3 cm of the forearm's axis.
+#[test]
+fn a_sleeve_follows_a_bending_elbow() {
+    let scene = load("sleeve_elbow");
+    let mut cuff_centre = Vector3::zeros();
+    let cuff: Vec<usize> = {
+        let rest = &scene.cloth().rest_positions;
+        (0..rest.len()).filter(|&i| rest[i].x > 0.249).collect()
+    };
+    bake_holding_the_limits(&scene, |_, x| {
+        cuff_centre = cuff.iter().map(|&i| x[i]).sum::<Vector3<f64>>() / cuff.len() as f64;
+    });
+    // The forearm turned 90° about Z at the elbow (0, 1, 0): its axis is now +Y.
+    let off_axis = Vector3::new(cuff_centre.x, 0.0, cuff_centre.z).norm();
+    assert!(off_axis < 0.03, "the cuff's centre is {off_axis:.3} m off the forearm's axis: {cuff_centre:?}");
 }
 
 /// A cloth pinched between two boxes and dragged by the bar it hangs on

@@ -2,6 +2,7 @@
 //! the contacts pass after pass with the hook's correction between them,
 //! and detect again only what moved.
 
+use super::after_zones::CORRECTION_PASSES;
 use super::*;
 
 impl CollisionPipeline {
@@ -39,8 +40,8 @@ impl CollisionPipeline {
     }
 
     /// Detect → respond passes until nothing needs an impulse, the passes
-    /// run out or (with `pass_progress`) stop gaining, each followed by the
-    /// pass hook. The step's first detection is full, later ones only of
+    /// run out (after a correction after zones, [`CORRECTION_PASSES`]) or
+    /// (with `pass_progress`) stop gaining, each followed by the pass hook. The step's first detection is full, later ones only of
     /// what moved. Returns whether the last detection found no contact at
     /// all (nothing is left for the impact zones).
     pub(super) fn impulse_passes(
@@ -50,7 +51,11 @@ impl CollisionPipeline {
         report: &mut CollisionReport,
     ) -> bool {
         let mut last_shortfall = f64::INFINITY;
-        for _ in 0..self.settings.passes {
+        let passes = match self.ws.frozen.is_empty() {
+            true => self.settings.passes,
+            false => CORRECTION_PASSES.min(self.settings.passes),
+        };
+        for _ in 0..passes {
             if self.ws.fresh {
                 self.detect(Detection::Proximity, Scope::All, report);
                 report.contacts = self.ws.contacts.len() as u32;
