@@ -219,8 +219,10 @@ fn cloth_drawn_over_a_table_edge_is_pushed_off_it_in_the_solve() {
     assert!(pushed * 5 < answered * 4, "{pushed} contacts with the repulsions, {answered} without");
     let fewer = pushed_projections * 5 < fought * 4;
     assert!(fewer, "{pushed_projections} projection iterations with them, {fought} without");
+    // Without them the corners used to stretch more than twice as far; the
+    // correction after impact zones now holds their limit either way.
     let (with, without) = (strain * 1e2, strain_without * 1e2);
-    assert!(2.0 * strain < strain_without, "the corners stretch {with:.2} % with them, {without:.2} % without");
+    assert!(strain <= 0.0101 + 1e-4, "the corners stretch {with:.2} % with them ({without:.2} % without)");
 }
 
 /// A table top as an OBJ mesh: a 1 m square slab, 4 cm thick, top at y = 0.

@@ -8,8 +8,9 @@
 //! those points fixed), and the passes of impulses and the zones run again
 //! over what it moved, so the step still ends on a detection of its final
 //! positions. Edges between two fixed points are left as the zones made them.
-//! Where those zones leave crossings, the correction is undone: the step
-//! ends as the first zones left it (`pillars`' cloth tented on cone tips).
+//! A zone after a correction sends its free points back to where the first
+//! zones left them; where those zones still leave crossings, the whole
+//! correction is undone and the step ends as the first zones left it.
 
 use nalgebra::Vector3;
 
@@ -17,12 +18,12 @@ use super::{CollisionPipeline, CollisionReport, Kinematic, PassHook, ResponseSta
 use crate::sim::contact::StepWindow;
 
 /// Corrections after impact zones per step at most: each can make zones of
-/// its own, corrected in turn.
+/// its own, corrected in turn (with one, `needles` ends a frame at 52 %).
 pub(super) const ZONE_CORRECTIONS: u32 = 2;
 
 /// Passes of impulses after a correction, before its zones take over. With
-/// the step's 6, `sleeve_elbow`'s frame 69 ended at 3.8 %; with 1 or 2 the
-/// whole bake stays within 1.36 %.
+/// the step's 6, `sleeve_elbow`'s frame 69 ended at 3.8 %; with 2 the whole
+/// bake stays within 1.7 %.
 pub(super) const CORRECTION_PASSES: u32 = 2;
 
 /// Rounds the zones after a correction may take before it is undone. Where
@@ -49,7 +50,9 @@ impl CollisionPipeline {
     /// Keeps the cloth as the step's first zones left it (to undo the
     /// corrections), fixes every free cloth particle an impact zone moved this step
     /// (kinematic on its path, as the pass hook's moves after a zone round
-    /// are) and runs the pass hook after [`ResponseStage::AfterZones`].
+    /// are), hands the hook every particle held so (with those the zones
+    /// carried and the hook held) as fixed, and runs it after
+    /// [`ResponseStage::AfterZones`].
     /// Returns whether the hook moved anything.
     pub(super) fn correct_after_zones(&mut self, after_zones: PassHook) -> bool {
         let ws = &mut self.ws;
@@ -61,10 +64,13 @@ impl CollisionPipeline {
             ws.zoned_velocity.extend_from_slice(&ws.velocity[..n]);
             ws.correction_kept = true;
         }
+        ws.frozen.clear();
         for (i, zoned) in ws.zoned.iter().enumerate() {
             if *zoned && ws.inverse_mass[i] > 0.0 {
                 ws.held[i] = Some(Kinematic::Deforming);
                 ws.inverse_mass[i] = 0.0;
+            }
+            if ws.held[i].is_some() {
                 ws.frozen.push(i as u32);
             }
         }
@@ -95,5 +101,25 @@ impl CollisionPipeline {
     pub fn before_last_correction(&self) -> Option<(&[Vector3<f64>], &[Vector3<f64>])> {
         let ws = &self.ws;
         ws.correction_kept.then_some((&ws.zoned_end[..], &ws.zoned_velocity[..]))
+    }
+}
+
+impl CollisionPipeline {
+    /// A round of zones after a correction: every free cloth point of a
+    /// zone goes back to where the step's first zones left it. That state
+    /// crossed nothing, so the zones, growing round by round, clear (at
+    /// worst the whole correction goes back), where moving with the fixed
+    /// points' rigid fit did not (`pillars`: the correction's zones ran out
+    /// of rounds on 32 of 33 zone steps, each costing ~220 ms for nothing).
+    pub(super) fn revert_zones(&mut self) {
+        let ws = &mut self.ws;
+        for &(_, i) in &ws.zone_members {
+            let i = i as usize;
+            if i < ws.zoned_end.len() && ws.inverse_mass[i] > 0.0 {
+                ws.end[i] = ws.zoned_end[i];
+                ws.velocity[i] = ws.zoned_velocity[i];
+                ws.moved[i] = true;
+            }
+        }
     }
 }

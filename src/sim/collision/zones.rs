@@ -76,6 +76,13 @@ impl CollisionPipeline {
                     *zoned = true;
                 }
             }
+            if !self.ws.frozen.is_empty() {
+                self.revert_zones();
+                self.ws.contacts = crossings;
+                self.run_hook(after_round, ResponseStage::ImpactZones);
+                report.response += clock.elapsed();
+                continue;
+            }
             let mut start = 0;
             while start < self.ws.zone_members.len() {
                 let root = self.ws.zone_members[start].0;
