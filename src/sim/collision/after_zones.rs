@@ -76,9 +76,7 @@ impl CollisionPipeline {
         }
         self.run_hook(after_zones, ResponseStage::AfterZones)
     }
-}
 
-impl CollisionPipeline {
     /// Puts the cloth back where the step's first zones left it, nothing
     /// crossing: a correction's own zones left crossings.
     pub(super) fn undo_correction(&mut self, report: &mut CollisionReport) {
@@ -91,9 +89,7 @@ impl CollisionPipeline {
         report.unresolved = 0;
         report.corrections_undone += 1;
     }
-}
 
-impl CollisionPipeline {
     /// The cloth's end positions and velocities (m, m/s) as the last
     /// resolve's first zones left them, before any correction, nothing
     /// crossing: `None` when that resolve kept no correction. A caller that measures
@@ -102,15 +98,12 @@ impl CollisionPipeline {
         let ws = &self.ws;
         ws.correction_kept.then_some((&ws.zoned_end[..], &ws.zoned_velocity[..]))
     }
-}
 
-impl CollisionPipeline {
     /// A round of zones after a correction: every free cloth point of a
     /// zone goes back to where the step's first zones left it. That state
     /// crossed nothing, so the zones, growing round by round, clear (at
-    /// worst the whole correction goes back), where moving with the fixed
-    /// points' rigid fit did not (`pillars`: the correction's zones ran out
-    /// of rounds on 32 of 33 zone steps, each costing ~220 ms for nothing).
+    /// worst the whole correction goes back); moving them with the fixed
+    /// points' rigid fit ran out of rounds on most of `pillars`' zone steps.
     pub(super) fn revert_zones(&mut self) {
         let ws = &mut self.ws;
         for &(_, i) in &ws.zone_members {

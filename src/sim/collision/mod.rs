@@ -185,9 +185,9 @@ pub struct PassState<'a> {
     pub pushed_off: &'a [Vector3<f64>],
     /// The part of the response just run.
     pub stage: ResponseStage,
-    /// Cloth particles the response has fixed for the rest of the step (the
-    /// points impact zones moved, once they left nothing crossing): the
-    /// hook must not move them.
+    /// Cloth particles the response has fixed for the rest of the step (once
+    /// impact zones left nothing crossing: the points they moved or carried
+    /// and those the hook held after a round): the hook must not move them.
     pub frozen: &'a [u32],
 }
 
@@ -250,7 +250,8 @@ pub struct CollisionReport {
     pub zone_rounds: u32,
     /// Corrections after impact zones ([`ResponseStage::AfterZones`]).
     pub zone_corrections: u32,
-    /// Of those, the ones undone because their own zones left crossings.
+    /// Corrections undone: their own zones left crossings, or (the
+    /// simulator's measure) more strain than the first zones did.
     pub corrections_undone: u32,
     /// Crossings left when the step ends (should be 0).
     pub unresolved: u32,

@@ -41,9 +41,10 @@ impl CollisionPipeline {
 
     /// Detect → respond passes until nothing needs an impulse, the passes
     /// run out (after a correction after zones, [`CORRECTION_PASSES`]) or
-    /// (with `pass_progress`) stop gaining, each followed by the pass hook. The step's first detection is full, later ones only of
-    /// what moved. Returns whether the last detection found no contact at
-    /// all (nothing is left for the impact zones).
+    /// (with `pass_progress`) stop gaining, each followed by the pass hook.
+    /// The step's first detection is full, later ones only of what moved.
+    /// Returns whether the last detection found no contact at all (nothing
+    /// is left for the impact zones).
     pub(super) fn impulse_passes(
         &mut self,
         window: StepWindow,

@@ -600,7 +600,8 @@ mod tests {
             pipeline.ws.moved[i] = true;
         }
         let mut report = CollisionReport::default();
-        let (rounds, left) = pipeline.impact_zones(window, &mut |_| false, &mut report, 40);
+        let all = pipeline.settings.zone_rounds;
+        let (rounds, left) = pipeline.impact_zones(window, &mut |_| false, &mut report, all);
         assert_eq!(rounds, pipeline.settings.zone_rounds, "every round found it");
         assert!(left > 0, "and it is reported left");
         assert_eq!(&pipeline.ws.end[3..], &start[3..].iter().map(|p| p + drop).collect::<Vec<_>>()[..]);

@@ -115,14 +115,6 @@ impl Simulator {
             let mut after_zones = false;
             let mut after_pass = |pass: PassState| {
                 let PassState { end, velocity, moved, pushed_off, stage, frozen } = pass;
-                let constraints = match frozen {
-                    [] => constraints,
-                    frozen => {
-                        frozen_constraints.clone_from(constraints);
-                        frozen.iter().for_each(|&i| frozen_constraints[i as usize] = Constraint::Fixed);
-                        &frozen_constraints[..]
-                    }
-                };
                 let gave_up = projection.abandoned || projection.fell_back || (projection.stalled && !pulled_apart);
                 let may_project = match stage {
                     ResponseStage::ImpactZones => false,
@@ -130,6 +122,16 @@ impl Simulator {
                     ResponseStage::Impulses => after_zones || !gave_up,
                 };
                 after_zones |= stage == ResponseStage::AfterZones && may_project;
+                // The particles the response fixed after zones are fixed in
+                // the projections too.
+                let constraints = match frozen {
+                    [_, ..] if may_project => {
+                        frozen_constraints.clone_from(constraints);
+                        frozen.iter().for_each(|&i| frozen_constraints[i as usize] = Constraint::Fixed);
+                        &frozen_constraints[..]
+                    }
+                    _ => constraints,
+                };
                 let mut projected = false;
                 before_projection.clear();
                 if let Some(limits) = limits.as_mut()
