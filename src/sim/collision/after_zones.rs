@@ -5,7 +5,9 @@
 //! cloth along. Once the zones leave nothing crossing, their points are
 //! fixed on the paths they gave them for the rest of the step, the pass hook
 //! corrects the rest of the cloth after them (the strain projection, with
-//! those points fixed), and the passes of impulses and the zones run again
+//! those points fixed; a hook that moves nothing, as the simulator's does
+//! where that projection falls short, ends the correction before it
+//! starts), and the passes of impulses and the zones run again
 //! over what it moved, so the step still ends on a detection of its final
 //! positions. Edges between two fixed points are left as the zones made them.
 //! A zone after a correction sends its free points back to where the first

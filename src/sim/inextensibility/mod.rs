@@ -258,6 +258,9 @@ pub struct StrainLimits {
     direct: DirectSolver,
     /// Whether the projection under way releases pushing edges.
     release: Release,
+    /// Newton iterations the projection under way may take, when fewer
+    /// than its kind's own ([`Self::project_if_met_within`]).
+    newton_budget: Option<u32>,
     /// Particles the projection under way may not move towards an obstacle
     /// (see [`StrainLimits::project_holding`]), with the unit normal
     /// pointing away from it.
@@ -294,6 +297,7 @@ impl StrainLimits {
             ws: Workspace::default(),
             direct: DirectSolver::NotNeededYet,
             release: Release::PushingEdges,
+            newton_budget: None,
             holds: Vec::new(),
             held: Vec::new(),
         };
@@ -361,7 +365,7 @@ impl StrainLimits {
     /// lowered the total squared excess, so `state` keeps what the cloth
     /// could give, and the edges nothing can shorten stay as they are.
     pub fn project(&mut self, state: ProjectedState) -> ProjectionReport {
-        self.project_keeping(state, true)
+        self.project_keeping(state, true, None)
     }
 
     /// The projection between collision passes. Like [`Self::project`], but
@@ -372,7 +376,14 @@ impl StrainLimits {
     /// [`Release`]): each release round costs a solve, often a factor, and
     /// after an impulse pass they are most of the projection's time.
     pub fn project_if_met(&mut self, state: ProjectedState) -> ProjectionReport {
-        self.project_keeping(state, false)
+        self.project_keeping(state, false, None)
+    }
+
+    /// [`Self::project_if_met`] in at most `newton_iterations`: for a
+    /// correction worth making only where the limits are met quickly
+    /// (otherwise `state` is left as it was, `abandoned`).
+    pub fn project_if_met_within(&mut self, state: ProjectedState, newton_iterations: u32) -> ProjectionReport {
+        self.project_keeping(state, false, Some(newton_iterations))
     }
 
     /// The projection between collision passes that does not move the
@@ -411,6 +422,7 @@ impl StrainLimits {
         self.holds.clear();
         self.holds.extend_from_slice(holds);
         self.release = Release::Never;
+        self.newton_budget = None;
         let mut report = self.run(&mut state, false);
         // The holds' own excess leaves out the edges they immobilised: their
         // edges are linearised again without the holds that still apply.
@@ -425,13 +437,20 @@ impl StrainLimits {
         report
     }
 
-    /// Runs the projection on `state`; between collision passes (without
-    /// `fallback`) undoes it when it stalls or misses its tolerance.
-    fn project_keeping(&mut self, mut state: ProjectedState, fallback: bool) -> ProjectionReport {
+    /// Runs the projection on `state` in at most `newton_budget` Newton
+    /// iterations (its kind's own when `None`); between collision passes
+    /// (without `fallback`) undoes it when it stalls or misses its tolerance.
+    fn project_keeping(
+        &mut self,
+        mut state: ProjectedState,
+        fallback: bool,
+        newton_budget: Option<u32>,
+    ) -> ProjectionReport {
         let mut saved = std::mem::take(&mut self.ws.saved);
         saved.clear();
         saved.extend(state.x.iter().zip(state.v.iter()).map(|(x, v)| (*x, *v)));
         self.release = if fallback { Release::PushingEdges } else { Release::Never };
+        self.newton_budget = newton_budget;
         let mut report = self.run(&mut state, fallback);
         let missed = !fallback && report.excess_strain > STRAIN_TOLERANCE;
         if (report.stalled && !fallback) || missed {

@@ -43,7 +43,8 @@ impl StrainLimits {
         let mut latest = initial;
         // Stalled short of half the starting excess: the limits are out of reach.
         let unreachable = |latest: f64| latest > UNREACHABLE_SHARE * initial;
-        let most = if holding { HOLDING_NEWTON_ITERATIONS } else { NEWTON_ITERATIONS };
+        let own = if holding { HOLDING_NEWTON_ITERATIONS } else { NEWTON_ITERATIONS };
+        let most = self.newton_budget.map_or(own, |budget| budget.min(own));
         for _ in 0..=most {
             report.excess_strain = self.update_active_set();
             if report.excess_strain <= STRAIN_TOLERANCE {

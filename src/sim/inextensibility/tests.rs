@@ -135,6 +135,33 @@ fn pinned_particles_stay_and_surface_particles_slide_along_their_surface() {
     assert_ne!(x[1], start_x[1]);
 }
 
+/// A projection between passes given fewer Newton iterations than it
+/// takes leaves the particles as they were (abandoned); given as many, it
+/// is that projection, to the bit.
+#[test]
+fn a_projection_within_too_few_newton_iterations_is_undone() {
+    let (cloth, start, pinned) = pulled_from_one_side(12);
+    let run = |budget: Option<u32>| {
+        let mut limits = StrainLimits::new(&cloth, StrainLimiting::Projection).expect("cotton has a limit");
+        let (mut x, mut v) = (start.clone(), vec![Vector3::zeros(); start.len()]);
+        let state = ProjectedState { x: &mut x, v: &mut v, constraints: &pinned, mass: &cloth.mass, h: 0.01 };
+        let report = match budget {
+            Some(n) => limits.project_if_met_within(state, n),
+            None => limits.project_if_met(state),
+        };
+        (report, x)
+    };
+    let (full, met) = run(None);
+    assert!(!full.abandoned && full.newton_iterations > 1, "{full:?}");
+    assert!(strains(&cloth, &met).iter().all(|&s| s <= 0.01 + STRAIN_TOLERANCE));
+    let (enough, x) = run(Some(full.newton_iterations));
+    assert_eq!((enough.newton_iterations, enough.abandoned), (full.newton_iterations, false));
+    assert_eq!(x, met);
+    let (short, x) = run(Some(full.newton_iterations - 1));
+    assert!(short.abandoned && short.newton_iterations == full.newton_iterations - 1, "{short:?}");
+    assert_eq!(x, start, "left as it was");
+}
+
 /// The 2 × 2 cloth of the first test with edges 0-1 and 2-3 at 120 %,
 /// projected between passes with `holds`: the end positions, the start
 /// and the report.
