@@ -52,10 +52,8 @@ impl CollisionPipeline {
         report: &mut CollisionReport,
     ) -> bool {
         let mut last_shortfall = f64::INFINITY;
-        let passes = match self.ws.frozen.is_empty() {
-            true => self.settings.passes,
-            false => CORRECTION_PASSES.min(self.settings.passes),
-        };
+        let passes =
+            if self.ws.frozen.is_empty() { self.settings.passes } else { CORRECTION_PASSES.min(self.settings.passes) };
         for _ in 0..passes {
             if self.ws.fresh {
                 self.detect(Detection::Proximity, Scope::All, report);

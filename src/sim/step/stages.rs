@@ -148,8 +148,6 @@ impl Simulator {
                     ResponseStage::Impulses => after_zones || !gave_up,
                 };
                 let correcting = stage == ResponseStage::AfterZones && may_project;
-                let was_after_zones = after_zones;
-                after_zones |= correcting;
                 // The particles the response fixed after zones are fixed in
                 // the projections too.
                 let constraints = match frozen {
@@ -188,11 +186,11 @@ impl Simulator {
                     }
                     projection.add(&report);
                     if refused {
-                        after_zones = was_after_zones;
                         return false;
                     }
                     projected = !report.abandoned;
                 }
+                after_zones |= correcting;
                 // What the response or the projection moved goes through the
                 // analytic colliders again, before the next detection sees it.
                 let before = &*before_projection;
