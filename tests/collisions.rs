@@ -12,6 +12,7 @@ use std::sync::atomic::AtomicBool;
 use drape::bake::{self, FrameRecord};
 use drape::scene::Scene;
 use drape::scene::file::{MeshSpec, SceneFile};
+use drape::sim::collision::CollisionSettings;
 use nalgebra::Vector3;
 
 fn standard(name: &str) -> PathBuf {
@@ -116,22 +117,33 @@ fn twist_never_intersects() {
 /// A bed of 3 mm needles: no vertex or edge passes one, and the cloth
 /// pierced between them never passes itself; full resolution (96 × 96), the
 /// size at which a particle moved after the pipeline's last check once left
-/// two triangle pairs crossed for good. The cloth rests on the tips without
-/// tearing its mesh apart: held off needles thinner than its edges, its
-/// largest strain is 4.5 % (cotton's limit is 1 %), where each pass's
-/// projection pulling it back round the tips left 190 %.
+/// two triangle pairs crossed for good. The cloth rests on the tips within
+/// its strain limit (cotton's 1 %, plus a point): held off needles thinner
+/// than its edges, where each pass's projection pulling it back round the
+/// tips left 190 %. The tips' springs carry it in the solve: with the
+/// edges' weaker springs it sank round the tips every step and the passes'
+/// projections lifted it back, taking three Newton iterations for every
+/// two they take now.
 #[test]
-fn needles_are_never_passed() {
-    let scene = Scene::load(&standard("needles")).unwrap_or_else(|e| panic!("{e}"));
-    let records = assert_never_intersects(&scene);
+fn needles_are_never_passed_and_the_tips_carry_the_cloth() {
+    let bake = |edit: &dyn Fn(&mut SceneFile)| {
+        let scene = Scene::load_edited(&standard("needles"), edit).unwrap_or_else(|e| panic!("{e}"));
+        assert_never_intersects(&scene)
+    };
+    let records = bake(&|_| {});
     assert!(records.iter().any(|r| r.triangle_contacts > 0), "the cloth met the needles' tips");
     let worst = records.iter().max_by(|a, b| a.max_free_strain.total_cmp(&b.max_free_strain)).expect("frames");
     assert!(
-        worst.max_free_strain < 0.10,
-        "frame {} ends at {:.1} % strain",
+        worst.max_free_strain <= 0.0201,
+        "frame {} ends at {:.2} % strain",
         worst.frame,
         100.0 * worst.max_free_strain
     );
+    let edges = CollisionSettings::default().feature_repulsion_stiffness;
+    let sagging = bake(&|file| file.collision.tip_repulsion_stiffness_n_per_m = edges);
+    let projection = |records: &[FrameRecord]| records.iter().map(|r| u64::from(r.projection_iterations)).sum::<u64>();
+    let (held, sank) = (projection(&records), projection(&sagging));
+    assert!(held * 4 < sank * 3, "{held} projection iterations on the tips' springs, {sank} on the edges'");
 }
 
 /// Friction carries the cloth round with a spinning sphere: after 2 s of
@@ -192,7 +204,7 @@ fn resting_folds_are_pushed_apart_in_the_solve() {
         let records = assert_never_intersects(&scene);
         records.iter().map(|r| u64::from(r.triangle_contacts)).sum::<u64>()
     };
-    let default = drape::sim::collision::CollisionSettings::default().repulsion_stiffness;
+    let default = CollisionSettings::default().repulsion_stiffness;
     let (pushed, answered) = (contacts(default), contacts(0.0));
     assert!(answered > 1000, "the folds rest on themselves: {answered} contacts");
     assert!(pushed * 2 < answered, "{pushed} contacts with the repulsions, {answered} without");
@@ -213,7 +225,7 @@ fn cloth_drawn_over_a_table_edge_is_pushed_off_it_in_the_solve() {
         let largest_strain = records.iter().map(|r| r.max_free_strain).fold(0.0, f64::max);
         (sum(&|r| r.triangle_contacts), sum(&|r| r.projection_iterations), largest_strain)
     };
-    let default = drape::sim::collision::CollisionSettings::default().feature_repulsion_stiffness;
+    let default = CollisionSettings::default().feature_repulsion_stiffness;
     let ((pushed, pushed_projections, strain), (answered, fought, strain_without)) = (bake(default), bake(0.0));
     assert!(answered > 1000, "the cloth rests on the table's edges: {answered} contacts");
     assert!(pushed * 5 < answered * 4, "{pushed} contacts with the repulsions, {answered} without");

@@ -188,6 +188,13 @@ fn bad_inputs_get_clear_errors_naming_the_file_and_the_problem() {
         (
             vec![(
                 "scene.toml",
+                format!("[collision]\ntip_repulsion_stiffness_n_per_m = -1\n{GOOD_HEAD}preset = \"cotton\"\n{grid}"),
+            )],
+            vec!["collision.tip_repulsion_stiffness_n_per_m", "-1 is out of range", "k ≥ 0 N/m"],
+        ),
+        (
+            vec![(
+                "scene.toml",
                 format!("{GOOD_HEAD}preset = \"cotton\"\nfabric = {{ strain_limit = -0.01 }}\n{grid}"),
             )],
             vec!["strain_limit = -0.01", "0 ≤ value ≤ 1"],

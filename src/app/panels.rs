@@ -430,6 +430,12 @@ fn solver_knobs(ui: &mut Ui, settings: &mut crate::scene::file::CollisionSetting
             let stiffness = &mut settings.feature_repulsion_stiffness_n_per_m;
             ui.add(egui::Slider::new(stiffness, 0.0..=100.0).suffix(" N/m"))
         });
+        let tip = "Springs holding the cloth on the tips of thin props it rests on as on a point (needles), in the \
+                   solve, N/m (0: off)";
+        row(ui, "Tip repulsion", tip, &mut |ui| {
+            let stiffness = &mut settings.tip_repulsion_stiffness_n_per_m;
+            ui.add(egui::Slider::new(stiffness, 0.0..=500.0).suffix(" N/m"))
+        });
         let tip = "Rounds of rigid impact zones before a step gives up";
         row(ui, "Impact-zone rounds", tip, &mut |ui| {
             ui.add(egui::DragValue::new(&mut settings.zone_rounds).range(1..=200))

@@ -343,6 +343,11 @@ pub struct CollisionSettings {
     /// implicit solve, N/m (0 turns them off).
     #[serde(default = "default_feature_repulsion_stiffness")]
     pub feature_repulsion_stiffness_n_per_m: f64,
+    /// Stiffness of the springs that hold the cloth on the tips of props
+    /// narrower than its edges it rests on as on a point (a needle), in
+    /// the implicit solve, N/m (0 turns them off).
+    #[serde(default = "default_tip_repulsion_stiffness")]
+    pub tip_repulsion_stiffness_n_per_m: f64,
     /// How near the thickness a contact rests, and how far past it its
     /// spring pushes, as a fraction of the thickness, 0 < b < 1.
     #[serde(default = "default_repulsion_band")]
@@ -376,6 +381,9 @@ fn default_repulsion_stiffness() -> f64 {
 fn default_feature_repulsion_stiffness() -> f64 {
     PipelineSettings::default().feature_repulsion_stiffness
 }
+fn default_tip_repulsion_stiffness() -> f64 {
+    PipelineSettings::default().tip_repulsion_stiffness
+}
 fn default_repulsion_band() -> f64 {
     PipelineSettings::default().repulsion_band
 }
@@ -395,6 +403,7 @@ impl Default for CollisionSettings {
             representative_triangles: p.representative_triangles,
             repulsion_stiffness_n_per_m: p.repulsion_stiffness,
             feature_repulsion_stiffness_n_per_m: p.feature_repulsion_stiffness,
+            tip_repulsion_stiffness_n_per_m: p.tip_repulsion_stiffness,
             repulsion_band: p.repulsion_band,
         }
     }
@@ -413,6 +422,7 @@ impl CollisionSettings {
             representative_triangles: self.representative_triangles,
             repulsion_stiffness: self.repulsion_stiffness_n_per_m,
             feature_repulsion_stiffness: self.feature_repulsion_stiffness_n_per_m,
+            tip_repulsion_stiffness: self.tip_repulsion_stiffness_n_per_m,
             repulsion_band: self.repulsion_band,
         }
     }

@@ -426,6 +426,8 @@ impl Resolver<'_> {
         self.check(&what("repulsion_stiffness_n_per_m"), c.repulsion_stiffness_n_per_m, |k| k >= 0.0, "k ≥ 0 N/m")?;
         let feature_stiffness = c.feature_repulsion_stiffness_n_per_m;
         self.check(&what("feature_repulsion_stiffness_n_per_m"), feature_stiffness, |k| k >= 0.0, "k ≥ 0 N/m")?;
+        let tip_stiffness = c.tip_repulsion_stiffness_n_per_m;
+        self.check(&what("tip_repulsion_stiffness_n_per_m"), tip_stiffness, |k| k >= 0.0, "k ≥ 0 N/m")?;
         self.check(&what("repulsion_band"), c.repulsion_band, |b| b > 0.0 && b < 1.0, "0 < b < 1")?;
         Ok(c.pipeline())
     }

@@ -9,10 +9,12 @@
 //! moves `d` only to second order at the closest points). A self-contact's
 //! spring pushes both features; one against an analytic collider's sharp
 //! feature (a table's edge, a needle's tip) pushes only the cloth's, the
-//! feature being where its collider puts it. The two kinds have their own
+//! feature being where its collider puts it. The three kinds have their own
 //! stiffness: a fold resting on itself carries little more than its own
 //! weight, a cloth drawn over a sharp edge the tension of all that hangs
-//! from it.
+//! from it, spread along the edge, and a cloth resting on a thin prop's tip
+//! as on a point (a needle) all that hangs from it through the few
+//! triangles over the tip.
 //!
 //! The spring couples particles of two fold layers, which the springs'
 //! factor does not hold, and conjugate gradients pays for such couplings with
@@ -55,6 +57,10 @@ pub struct RestingPair {
     pub distance: f64,
     /// Distance the pair must keep, m.
     pub thickness: f64,
+    /// Whether the obstacle feature is the tip of a prop the cloth rests
+    /// on as on a point (one the strain projection holds the cloth off,
+    /// [`crate::sim::collision::obstacles::Obstacles::holds`]).
+    pub on_a_tip: bool,
 }
 
 impl RestingPair {
@@ -72,6 +78,9 @@ pub struct Repulsion {
     /// Stiffness `k` of a spring between a cloth feature and an analytic
     /// collider's sharp feature, N/m.
     pub feature_stiffness: f64,
+    /// Stiffness `k` of a spring between a cloth feature and the tip of a
+    /// prop it rests on as on a point, N/m.
+    pub tip_stiffness: f64,
     /// `d₀` beyond the thickness, as a fraction of it.
     pub band: f64,
     /// Step, s.
@@ -81,7 +90,13 @@ pub struct Repulsion {
 impl Repulsion {
     /// Stiffness of `pair`'s spring, N/m.
     pub fn stiffness(&self, pair: &RestingPair) -> f64 {
-        if pair.is_self_contact() { self.self_stiffness } else { self.feature_stiffness }
+        if pair.is_self_contact() {
+            self.self_stiffness
+        } else if pair.on_a_tip {
+            self.tip_stiffness
+        } else {
+            self.feature_stiffness
+        }
     }
 
     /// Force of `pair`'s spring on its `k`th point, N (nothing moves an
@@ -123,7 +138,7 @@ mod tests {
     const ON_AN_OBSTACLE: [bool; 4] = [true, false, false, false];
 
     fn repulsion(self_stiffness: f64, feature_stiffness: f64) -> Repulsion {
-        Repulsion { self_stiffness, feature_stiffness, band: 0.1, h: 1.0 / 60.0 }
+        Repulsion { self_stiffness, feature_stiffness, tip_stiffness: feature_stiffness, band: 0.1, h: 1.0 / 60.0 }
     }
 
     fn vertex_over_triangle(x: &[Vector3<f64>; 4], on_cloth: [bool; 4]) -> RestingPair {
@@ -131,7 +146,8 @@ mod tests {
         let weights = [1.0, -wa, -wb, -wc];
         let gap: Vector3<f64> = (0..4).map(|k| x[k] * weights[k]).sum();
         let distance = gap.norm();
-        RestingPair { nodes: [0, 1, 2, 3], on_cloth, weights, normal: gap / distance, distance, thickness: THICKNESS }
+        let normal = gap / distance;
+        RestingPair { nodes: [0, 1, 2, 3], on_cloth, weights, normal, distance, thickness: THICKNESS, on_a_tip: false }
     }
 
     fn resting_vertex() -> [Vector3<f64>; 4] {
@@ -206,14 +222,19 @@ mod tests {
     }
 
     /// Each kind of pair is pushed with its own stiffness: a weak self
-    /// repulsion leaves an obstacle pair's spring as stiff as it is set.
+    /// repulsion leaves an obstacle pair's spring as stiff as it is set, and
+    /// a cloth on a needle's tip is pushed with the tips' stiffness.
     #[test]
-    fn self_and_obstacle_pairs_have_their_own_stiffness() {
-        let repulsion = repulsion(0.5, 20.0);
+    fn self_obstacle_and_tip_pairs_have_their_own_stiffness() {
+        let repulsion = Repulsion { tip_stiffness: 150.0, ..repulsion(0.5, 20.0) };
         let x = resting_vertex();
         let (folded, draped) = (vertex_over_triangle(&x, SELF_CONTACT), vertex_over_triangle(&x, ON_AN_OBSTACLE));
-        assert_eq!((repulsion.stiffness(&folded), repulsion.stiffness(&draped)), (0.5, 20.0));
+        let on_a_needle = RestingPair { on_a_tip: true, ..draped };
+        let stiffness = [folded, draped, on_a_needle].map(|pair| repulsion.stiffness(&pair));
+        assert_eq!(stiffness, [0.5, 20.0, 150.0]);
         let ratio = repulsion.force(&draped, 0).norm() / repulsion.force(&folded, 0).norm();
         assert!((ratio - 40.0).abs() < 1e-9, "{ratio}");
+        let ratio = repulsion.force(&on_a_needle, 0).norm() / repulsion.force(&draped, 0).norm();
+        assert!((ratio - 7.5).abs() < 1e-9, "{ratio}");
     }
 }

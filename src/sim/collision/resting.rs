@@ -36,7 +36,6 @@ use nalgebra::Vector3;
 
 use super::CollisionPipeline;
 use super::geometry::{closest_between_segments, closest_on_triangle};
-use super::obstacles::Obstacles;
 use crate::sim::repulsion::{Repulsion, RestingPair};
 
 impl CollisionPipeline {
@@ -48,10 +47,11 @@ impl CollisionPipeline {
         let repulsion = Repulsion {
             self_stiffness: settings.repulsion_stiffness,
             feature_stiffness: settings.feature_repulsion_stiffness,
+            tip_stiffness: settings.tip_repulsion_stiffness,
             band: settings.repulsion_band,
             h,
         };
-        if repulsion.self_stiffness == 0.0 && repulsion.feature_stiffness == 0.0 {
+        if [repulsion.self_stiffness, repulsion.feature_stiffness, repulsion.tip_stiffness] == [0.0; 3] {
             out.clear();
             return None;
         }
@@ -63,20 +63,28 @@ impl CollisionPipeline {
     /// band (a fraction of their thickness) of the thickness with the cloth
     /// at positions `x` (m) and the obstacles where they are at time `t0`
     /// (s), in key order, into `out`; only the kinds the repulsion pushes
-    /// (self-contacts, contacts with analytic colliders' sharp features).
-    /// Those resting on a feature the cloth wraps round are remembered for
-    /// the step (see the module documentation).
+    /// (self-contacts, contacts with analytic colliders' sharp features and
+    /// with thin props' tips, each where its stiffness is not 0). Those
+    /// resting on a feature the cloth wraps round are remembered for the
+    /// step (see the module documentation).
     pub fn resting_pairs(&mut self, x: &[Vector3<f64>], t0: f64, repulsion: &Repulsion, out: &mut Vec<RestingPair>) {
         out.clear();
         let cloth = self.particles.len() as u32;
         // Points from here on are triangle meshes' (bodies): not features.
         let first_mesh = cloth + self.obstacles.first_mesh_vertex;
+        let holds = &self.obstacles.holds;
+        let on_a_tip = |nodes: &[u32]| nodes.iter().any(|&i| i >= cloth && holds[(i - cloth) as usize]);
         let wanted = |key: &[u32; 5]| {
-            if key[1..].iter().all(|&i| i < cloth) {
-                repulsion.self_stiffness > 0.0
+            let stiffness = if key[1..].iter().all(|&i| i < cloth) {
+                repulsion.self_stiffness
+            } else if key[1..].iter().any(|&i| i >= first_mesh) {
+                0.0
+            } else if on_a_tip(&key[1..]) {
+                repulsion.tip_stiffness
             } else {
-                repulsion.feature_stiffness > 0.0 && key[1..].iter().all(|&i| i < first_mesh)
-            }
+                repulsion.feature_stiffness
+            };
+            stiffness > 0.0
         };
         let keys = &mut self.ws.resting_keys;
         keys.clear();
@@ -90,11 +98,13 @@ impl CollisionPipeline {
             let on_cloth = nodes.map(|i| i < cloth);
             let cloth_nodes = nodes.iter().filter(|&&i| i < cloth);
             let thickness = cloth_nodes.map(|&i| particles[i as usize].thickness).fold(0.0, f64::max);
-            let Some(pair) = pair_at(key[0], nodes, on_cloth, nodes.map(at), thickness) else { continue };
+            let Some(mut pair) = pair_at(key[0], nodes, on_cloth, nodes.map(at), thickness) else { continue };
             if (pair.distance - thickness).abs() > repulsion.band * thickness {
                 continue;
             }
-            if wraps_round(obstacles, &pair, cloth)
+            pair.on_a_tip = on_a_tip(&nodes);
+            if !pair.is_self_contact()
+                && !pair.on_a_tip
                 && let Some((value, _)) = influence.get_mut(key)
             {
                 *value = value.max(kept);
@@ -102,14 +112,6 @@ impl CollisionPipeline {
             out.push(pair);
         }
     }
-}
-
-/// Whether `pair` is the cloth on an obstacle feature it wraps round: not
-/// a self-contact, nor the tip of a prop the projection holds the cloth
-/// off. Obstacle points are numbered from `cloth` on.
-fn wraps_round(obstacles: &Obstacles, pair: &RestingPair, cloth: u32) -> bool {
-    let held = |i: u32| i >= cloth && obstacles.holds[(i - cloth) as usize];
-    !pair.is_self_contact() && !pair.nodes.into_iter().any(held)
 }
 
 /// The pair of `kind` (0 vertex-triangle, 1 edge-edge) between `nodes` at
@@ -131,7 +133,10 @@ fn pair_at(
     };
     let gap = a * weights[0] + b * weights[1] + c * weights[2] + d * weights[3];
     let distance = gap.norm();
-    (distance > 0.0).then(|| RestingPair { nodes, on_cloth, weights, normal: gap / distance, distance, thickness })
+    (distance > 0.0).then(|| {
+        let normal = gap / distance;
+        RestingPair { nodes, on_cloth, weights, normal, distance, thickness, on_a_tip: false }
+    })
 }
 
 #[cfg(test)]
@@ -163,7 +168,7 @@ mod tests {
     }
 
     fn repulsion(self_stiffness: f64, feature_stiffness: f64) -> Repulsion {
-        Repulsion { self_stiffness, feature_stiffness, band: 0.1, h: 1.0 / 60.0 }
+        Repulsion { self_stiffness, feature_stiffness, tip_stiffness: feature_stiffness, band: 0.1, h: 1.0 / 60.0 }
     }
 
     /// Of the remembered contacts, those between cloth particles resting
@@ -201,7 +206,8 @@ mod tests {
     /// rests, it outlives a step of passes that miss it, where a faint memory
     /// fades out in a few. A pair past the band is left to fade, and so are
     /// a cloth triangle resting on a needle's tip (which the projection holds
-    /// the cloth off) and a fold resting on itself.
+    /// the cloth off, and whose spring is the tips') and a fold resting on
+    /// itself.
     #[test]
     fn a_pair_resting_on_a_wrapped_feature_is_remembered_through_a_step_that_never_sees_it() {
         // A 1 m box whose top face is y = 0, corner 7 at (0.5, 0, 0.5); a
@@ -249,6 +255,8 @@ mod tests {
         pipeline.resting_pairs(&x, 0.0, &repulsion(0.5, 30.0), &mut pairs);
         let nodes: Vec<[u32; 4]> = pairs.iter().map(|p| p.nodes).collect();
         assert_eq!(nodes, [[6, 0, 1, 2], [obstacle(7), 0, 1, 2], [obstacle(tip), 3, 4, 5]], "three rest");
+        let on_a_tip: Vec<bool> = pairs.iter().map(|p| p.on_a_tip).collect();
+        assert_eq!(on_a_tip, [false, false, true], "only the needle's rim is a tip");
         for _ in 0..pipeline.settings.passes {
             pipeline.respond_pass(0.01);
         }
