@@ -70,6 +70,11 @@ pub enum Suite {
     Paper,
     /// The hard cases of SCENES.md (stability and robustness).
     Hard,
+    /// The hard cases where contact and a driver pull the cloth against
+    /// each other (`docs/hard-cases.md`): a cloth pulled through a funnel,
+    /// gripped by a sphere that starts spinning, pinched and dragged between
+    /// jaws, a sleeve on a bending arm.
+    Tension,
     /// Speed against error on `drape_sphere` (contact window and end state),
     /// `drape_table` and `skirt_walk` (contact window): 1, 2, 4, 8 steps per
     /// frame × tolerances 1e-2, 1e-3, 1e-4 against the 16× reference (as
@@ -105,6 +110,7 @@ impl Suite {
         match self {
             Suite::Paper => "paper",
             Suite::Hard => "hard",
+            Suite::Tension => "tension",
             Suite::Accuracy => "accuracy",
             Suite::Core => "core",
             Suite::Collisions => "collisions",
@@ -120,7 +126,15 @@ impl Suite {
     fn parts(self) -> Vec<Suite> {
         match self {
             Suite::All => {
-                vec![Suite::Paper, Suite::Hard, Suite::Core, Suite::Collisions, Suite::Constraints, Suite::Scaling]
+                vec![
+                    Suite::Paper,
+                    Suite::Hard,
+                    Suite::Tension,
+                    Suite::Core,
+                    Suite::Collisions,
+                    Suite::Constraints,
+                    Suite::Scaling,
+                ]
             }
             suite => vec![suite],
         }
@@ -216,6 +230,16 @@ const HARD_CASES: [Case; 8] = [
     Case::new("bad_mesh", None, true),
 ];
 
+/// The hard cases of tension through contact, each against its reference
+/// but the funnel: crumpled in the neck it takes ~0.8 s a frame, and its
+/// 16× reference would take half an hour.
+const TENSION_CASES: [Case; 4] = [
+    Case::new("pull_through_funnel", None, true).with_error(None),
+    Case::new("spin_sphere_grip", None, true),
+    Case::new("pinch_drag", None, true),
+    Case::new("sleeve_elbow", None, true),
+];
+
 /// Scenes of the accuracy suite, with the errors each is measured by: the
 /// static `drape_sphere` also at its end state.
 pub const ACCURACY_SCENES: [(&str, ErrorMeasure); 3] = [
@@ -254,6 +278,7 @@ fn cases(suite: Suite) -> Vec<Case> {
         Suite::Scaling => scaling.collect(),
         Suite::Paper => PAPER_CASES.to_vec(),
         Suite::Hard => HARD_CASES.to_vec(),
+        Suite::Tension => TENSION_CASES.to_vec(),
         Suite::Accuracy | Suite::Peers | Suite::Soak | Suite::All => Vec::new(),
     }
 }
@@ -554,6 +579,30 @@ pub fn scaling_table(results: &[BenchResult]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::file::{SceneFile, SceneKind};
+
+    /// Every hard case among the standard scenes is benchmarked: in the hard
+    /// suite or, where contact and a driver pull the cloth at once, in the
+    /// tension suite; `all` runs both.
+    #[test]
+    fn every_hard_case_scene_is_in_the_hard_or_the_tension_suite() {
+        let suites = [Suite::Hard, Suite::Tension];
+        assert!(suites.iter().all(|suite| Suite::All.parts().contains(suite)));
+        let benchmarked: Vec<&str> = suites.into_iter().flat_map(cases).map(|case| case.scene).collect();
+        let folder = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+        let mut hard_cases = 0;
+        for entry in std::fs::read_dir(&folder).expect("the scenes folder") {
+            let path = entry.expect("a scene").path();
+            let text = std::fs::read_to_string(&path).expect("a readable scene");
+            let file: SceneFile = toml::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let name = path.file_stem().and_then(|stem| stem.to_str()).expect("a name");
+            if file.kind == SceneKind::HardCase {
+                assert!(benchmarked.contains(&name), "{name} is a hard case no suite runs");
+                hard_cases += 1;
+            }
+        }
+        assert_eq!(hard_cases, benchmarked.len(), "each benchmarked once: {benchmarked:?}");
+    }
 
     #[test]
     fn the_exponent_of_a_power_law_is_its_log_log_slope() {
