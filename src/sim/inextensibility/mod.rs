@@ -172,16 +172,23 @@ impl ProjectionReport {
     /// Folds in a later projection of the same step (after collision
     /// impulses): iterations add up, the excess left is the later one.
     pub fn add(&mut self, later: &ProjectionReport) {
+        self.add_work(later);
         self.active_edges = self.active_edges.max(later.active_edges);
-        self.newton_iterations += later.newton_iterations;
-        self.cg_iterations += later.cg_iterations;
-        self.factorizations += later.factorizations;
-        self.clamp_sweeps += later.clamp_sweeps;
         self.excess_strain = later.excess_strain;
         self.fell_back |= later.fell_back;
         self.stalled |= later.stalled;
         self.abandoned |= later.abandoned;
         self.partial |= later.partial;
+    }
+
+    /// Folds in only the work of a later projection whose result was not
+    /// kept (iterations, factors, sweeps): what the step's projection
+    /// reached stands as it was.
+    pub fn add_work(&mut self, later: &ProjectionReport) {
+        self.newton_iterations += later.newton_iterations;
+        self.cg_iterations += later.cg_iterations;
+        self.factorizations += later.factorizations;
+        self.clamp_sweeps += later.clamp_sweeps;
     }
 }
 

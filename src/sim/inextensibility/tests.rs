@@ -470,3 +470,25 @@ fn no_limit_or_limiting_off_costs_nothing() {
     assert_eq!(limits.edge_count(), 48, "the other garment's edges wait with no limit");
     assert_eq!(limits.max_lengths().iter().filter(|l| l.is_infinite()).count(), 24);
 }
+
+/// A later projection folded in adds its work; only one whose result was
+/// kept changes what the step's projection reached.
+#[test]
+fn only_a_kept_projection_changes_the_standing_of_the_step() {
+    let step = ProjectionReport { newton_iterations: 3, factorizations: 3, excess_strain: 0.0, ..Default::default() };
+    let refused = ProjectionReport {
+        newton_iterations: 12,
+        cg_iterations: 20,
+        factorizations: 12,
+        excess_strain: 0.5,
+        abandoned: true,
+        ..Default::default()
+    };
+    let mut work = step;
+    work.add_work(&refused);
+    let expected = ProjectionReport { newton_iterations: 15, cg_iterations: 20, factorizations: 15, ..step };
+    assert_eq!(work, expected);
+    let mut kept = step;
+    kept.add(&refused);
+    assert_eq!((kept.newton_iterations, kept.excess_strain, kept.abandoned), (15, 0.5, true));
+}

@@ -170,7 +170,7 @@ impl Simulator {
                         holds.extend(normalised_pushes(pushed_off));
                     }
                     let state = ProjectedState { x: end, v: velocity, constraints, mass, h };
-                    let mut report = if correcting {
+                    let report = if correcting {
                         limits.project_if_met_within(state, CORRECTION_NEWTON_ITERATIONS)
                     } else if pulled_apart || after_zones {
                         limits.project_partial(state, holds)
@@ -180,14 +180,11 @@ impl Simulator {
                     // A correction after zones that does not meet the limits
                     // soon is not made: the step goes on as the zones left
                     // it, its projection's standing unchanged.
-                    let refused = correcting && report.abandoned;
-                    if refused {
-                        (report.fell_back, report.stalled) = (false, false);
-                    }
-                    projection.add(&report);
-                    if refused {
+                    if correcting && report.abandoned {
+                        projection.add_work(&report);
                         return false;
                     }
+                    projection.add(&report);
                     projected = !report.abandoned;
                 }
                 after_zones |= correcting;
