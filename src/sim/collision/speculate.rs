@@ -103,7 +103,7 @@ impl CollisionPipeline {
         };
         let margin = leaf_margin(&self.triangles, &self.particles);
         let boxes = (&ws.triangle_box[..], &mut ws.leaf_box[..]);
-        ws.partners.re_leaf(&ws.moved_list, boxes, margin, bvh, &mut ws.query_chunks);
+        ws.partners.re_leaf(&ws.moved_list, boxes, margin, bvh, (&mut ws.query_chunks, &mut ws.pair_sorter));
     }
 }
 

@@ -248,7 +248,7 @@ impl CollisionPipeline {
         ws.escaping.extend(ws.moved_list.iter().filter(|&&t| !leaf_box[t as usize].contains(&real[t as usize])));
         let margin = leaf_margin(&self.triangles, &self.particles);
         let boxes = (&ws.triangle_box[..], &mut ws.leaf_box[..]);
-        ws.partners.re_leaf(&ws.escaping, boxes, margin, bvh, &mut ws.query_chunks);
+        ws.partners.re_leaf(&ws.escaping, boxes, margin, bvh, (&mut ws.query_chunks, &mut ws.pair_sorter));
     }
 
     /// Boxes, broad phase and narrow phase over `scope`: fills the
