@@ -139,6 +139,9 @@ pub(super) struct LinearisedEdges {
     summaries: Vec<ChunkSummary>,
     /// Per chunk: an edge of it was linearised again since its summary.
     stale: Vec<bool>,
+    /// Per particle: among the particles [`Self::update_at`] is given,
+    /// scratch (all false between calls).
+    is_moved: Vec<bool>,
 }
 
 /// One chunk of the per-edge parts of [`LinearisedEdges`].
@@ -174,19 +177,32 @@ impl LinearisedEdges {
 
     /// Linearises again, at `particles`, every edge at one of `moved` (the
     /// only particles that moved, or whose constraints changed, since the
-    /// last linearisation), and redoes the summaries of their chunks. When
-    /// they reach most of the edges, every edge is linearised again in
+    /// last linearisation), once each (an edge between two of them from its
+    /// end with the lower index), and redoes the summaries of their chunks.
+    /// When they reach most of the edges, every edge is linearised again in
     /// parallel chunks instead: the same bits, on both cores.
     pub fn update_at(&mut self, moved: &[u32], edges: &EdgeSet, particles: Particles) {
         let reached: usize = moved.iter().map(|&v| edges.incidence.degree(v as usize)).sum();
         if edges.ends.len() >= PARALLEL_FROM && 2 * reached >= edges.ends.len() {
             return self.linearise_all(edges, particles);
         }
+        self.is_moved.resize(particles.x.len(), false);
+        for &v in moved {
+            self.is_moved[v as usize] = true;
+        }
         for &v in moved {
             for (e, _) in edges.incidence.of(v as usize) {
+                let [a, b] = edges.ends[e];
+                let other = if a == v { b } else { a };
+                if other < v && self.is_moved[other as usize] {
+                    continue;
+                }
                 (self.states[e], self.movable[e], self.near[e]) = linearise_edge(e, edges, particles);
                 self.stale[e / CHUNK] = true;
             }
+        }
+        for &v in moved {
+            self.is_moved[v as usize] = false;
         }
         for (c, stale) in self.stale.iter_mut().enumerate().filter(|(_, stale)| **stale) {
             let range = c * CHUNK..((c + 1) * CHUNK).min(self.states.len());
