@@ -106,9 +106,9 @@ impl Partners {
     /// `leaf_box` and in `bvh`; marks them queried, and adds each to the
     /// lists of the triangles its new leaf meets (queried in parallel
     /// `chunks`; sorted after, so in the same order at any thread count:
-    /// only the new entries, by `sorter`, merged into those of the step's
-    /// earlier detections, which a sort of them all took 4 % of
-    /// `pull_through_funnel`'s time to repeat).
+    /// only the new entries are sorted, by `sorter`, and merged into those
+    /// of the step's earlier detections; sorting them all again at every
+    /// detection took 4 % of `pull_through_funnel`'s time).
     pub fn re_leaf(
         &mut self,
         escaping: &[u32],
