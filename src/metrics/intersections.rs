@@ -85,7 +85,12 @@ impl Checker {
     /// Checks the cloth at `positions` with the colliders as they are at time
     /// `t` s.
     pub fn check(&self, positions: &[Vector3<f64>], t: f64) -> Intersections {
-        let mut found = Intersections { cloth_pairs: self.cloth_pairs(positions), ..Default::default() };
+        // One grid of the cloth's boxes serves its own pairs and every mesh.
+        let cloth_boxes = self.boxes(positions, &self.triangles);
+        let grid = BoxGrid::new(&cloth_boxes);
+        let cloth = grid.as_ref().map(|grid| (&cloth_boxes[..], grid));
+        let cloth_pairs = cloth.map_or(0, |cloth| self.cloth_pairs(positions, cloth));
+        let mut found = Intersections { cloth_pairs, ..Default::default() };
         for (solid, collider) in &self.solids {
             let pose = collider.world_from_local(t);
             if let Solid::Ground = solid {
@@ -98,29 +103,37 @@ impl Checker {
             };
             found.penetrating_vertices += positions.par_iter().filter(|p| inside(p)).count() as u32;
         }
-        for mesh in &self.surfaces {
-            found.collider_pairs += self.mesh_pairs(positions, mesh, t);
+        if let Some(cloth) = cloth {
+            for mesh in &self.surfaces {
+                found.collider_pairs += self.mesh_pairs(positions, mesh, t, cloth);
+            }
         }
         found
     }
 
-    /// Intersecting pairs of cloth triangles that share no vertex.
-    fn cloth_pairs(&self, positions: &[Vector3<f64>]) -> u32 {
+    /// Intersecting pairs of cloth triangles that share no vertex, from
+    /// the triangles' boxes and their grid.
+    fn cloth_pairs(&self, positions: &[Vector3<f64>], (boxes, grid): (&[BoxBounds], &BoxGrid)) -> u32 {
         let corners = |t: usize| self.triangles[t].map(|v| positions[v as usize]);
         let adjacent = |a: &[u32; 3], b: &[u32; 3]| a.iter().any(|v| b.contains(v));
-        let intersecting = overlapping_pairs_where(&self.boxes(positions, &self.triangles), |i, j| {
+        let intersecting = overlapping_pairs_where(grid, boxes, |i, j| {
             let (a, b) = (&self.triangles[i], &self.triangles[j]);
             !adjacent(a, b) && triangles_intersect(&corners(i), &corners(j))
         });
         intersecting.len() as u32
     }
 
-    /// Cloth triangles intersecting a mesh collider's triangles.
-    fn mesh_pairs(&self, positions: &[Vector3<f64>], mesh: &MeshCollider, t: f64) -> u32 {
+    /// Cloth triangles intersecting a mesh collider's triangles, from the
+    /// cloth triangles' boxes and their grid.
+    fn mesh_pairs(
+        &self,
+        positions: &[Vector3<f64>],
+        mesh: &MeshCollider,
+        t: f64,
+        (cloth_boxes, grid): (&[BoxBounds], &BoxGrid),
+    ) -> u32 {
         let world = mesh.world_vertices(t);
-        let cloth_boxes = self.boxes(positions, &self.triangles);
         let mesh_boxes = self.boxes(&world, &mesh.triangles);
-        let Some(grid) = BoxGrid::new(&cloth_boxes) else { return 0 };
         // Each chunk of the mesh marks the cloth triangles it cuts; a cloth
         // triangle counts once however many chunks cut it.
         let hit = (0..mesh_boxes.len())
@@ -129,7 +142,7 @@ impl Checker {
             .map(|first| {
                 let mut hit = vec![false; cloth_boxes.len()];
                 let chunk = first..(first + MESH_CHUNK).min(mesh_boxes.len());
-                for_each_overlapping_pair_between(&grid, &cloth_boxes, &mesh_boxes[chunk], |c, m| {
+                for_each_overlapping_pair_between(grid, cloth_boxes, &mesh_boxes[chunk], |c, m| {
                     if !hit[c] {
                         let cloth = self.triangles[c].map(|v| positions[v as usize]);
                         hit[c] = triangles_intersect(&cloth, &mesh.triangles[first + m].map(|v| world[v as usize]));
@@ -348,10 +361,14 @@ fn cells(lo: [i64; 3], hi: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
     (lo[0]..=hi[0]).flat_map(move |x| (lo[1]..=hi[1]).flat_map(move |y| (lo[2]..=hi[2]).map(move |z| [x, y, z])))
 }
 
-/// Every pair `(i, j)` (i < j) of overlapping boxes for which `keep(i, j)`
-/// holds, each once, in an order that does not depend on the thread count.
-fn overlapping_pairs_where(boxes: &[BoxBounds], keep: impl Fn(usize, usize) -> bool + Sync) -> Vec<(usize, usize)> {
-    let Some(grid) = BoxGrid::new(boxes) else { return Vec::new() };
+/// Every pair `(i, j)` (i < j) of overlapping `boxes` (gridded in `grid`)
+/// for which `keep(i, j)` holds, each once, in an order that does not
+/// depend on the thread count.
+fn overlapping_pairs_where(
+    grid: &BoxGrid,
+    boxes: &[BoxBounds],
+    keep: impl Fn(usize, usize) -> bool + Sync,
+) -> Vec<(usize, usize)> {
     let mut occupied: Vec<(&[i64; 3], &Vec<u32>)> = grid.members.iter().collect();
     occupied.sort_unstable_by_key(|(c, _)| **c);
     let ranges = &grid.ranges;
@@ -526,7 +543,8 @@ mod tests {
                 (lo, lo + Vector3::repeat(0.25 + 0.1 * (i % 4) as f64))
             })
             .collect();
-        let mut found = overlapping_pairs_where(&boxes, |_, _| true);
+        let grid = BoxGrid::new(&boxes).expect("boxes to grid");
+        let mut found = overlapping_pairs_where(&grid, &boxes, |_, _| true);
         let mut brute = Vec::new();
         for i in 0..boxes.len() {
             for j in i + 1..boxes.len() {
