@@ -21,8 +21,8 @@
 //! only down to [`AdaptiveSettings::snag_halvings`]: past that it is
 //! accepted as it is, never a reason to stop. A step that needed impact
 //! zones is held to a tighter bound ([`ZONED_SNAG_STRAIN`]): what is left
-//! after the zones' correction is edges between two points the zones fixed,
-//! which a shorter step shortens.
+//! after the zones' correction is edges its projection could not shorten
+//! (round points a collider carries), which a shorter step shortens.
 //!
 //! A cloth at rest, or moving steadily, is stepped as accurately by longer
 //! steps: when [`AdaptiveSettings::long_step_error`] is set, a step may
@@ -53,9 +53,10 @@ use super::step::{Checkpoint, Simulator, StepError, StepReport};
 
 /// The snag strain of a step beside a moving body that needed impact zones,
 /// unitless (2 points): zones move their points rigidly, and the correction
-/// after them ([`super::collision`]'s `after_zones`) cannot shorten an edge
-/// between two points they moved (`fast_body` frame 16: 6.8 % kept, against
-/// 2.1 % when that step is retried shorter). Zone steps are rare, so the
+/// after them ([`super::collision`]'s `after_zones`) is refused where its
+/// projection does not meet the limits soon (`fast_body` frame 16, when the
+/// zones' points were fixed in it: 6.8 % kept, against 2.1 % when that step
+/// is retried shorter). Zone steps are rare, so the
 /// retries cost little.
 const ZONED_SNAG_STRAIN: f64 = 0.02;
 /// A step that failed even at the shortest step the safety net allows; the

@@ -169,11 +169,10 @@ pub enum ResponseStage {
     Impulses,
     /// A round of rigid impact zones.
     ImpactZones,
-    /// Impact zones that left nothing crossing, whose points are now fixed
-    /// for the rest of the step ([`PassState::frozen`]): the hook may move
-    /// the rest of the cloth after them (the edges leaving a rigid zone are
-    /// stretched), and the passes and zones then run again over what it
-    /// moved ([`after_zones`]).
+    /// Impact zones that left nothing crossing: the hook may move the cloth
+    /// after them, the zones' points with it (the edges leaving a rigid
+    /// zone, or between two zones, are stretched), and the passes and zones
+    /// then run again over what it moved ([`after_zones`]).
     AfterZones,
 }
 
@@ -198,8 +197,9 @@ pub struct PassState<'a> {
     /// The part of the response just run.
     pub stage: ResponseStage,
     /// Cloth particles the response has fixed for the rest of the step (once
-    /// impact zones left nothing crossing: the points they moved or carried
-    /// and those the hook held after a round): the hook must not move them.
+    /// impact zones left nothing crossing: the points they carried with an
+    /// obstacle and those the hook held after a round): the hook must not
+    /// move them.
     pub frozen: &'a [u32],
 }
 
@@ -415,15 +415,16 @@ struct Workspace {
     inner_zones: Zones,
     /// The step's first detection is still to come (it is a full one).
     fresh: bool,
-    /// Per cloth particle: an impact zone moved it this step.
-    zoned: Vec<bool>,
     /// The cloth particles fixed after impact zones ([`PassState::frozen`]).
     frozen: Vec<u32>,
     /// The cloth's end positions and velocities as the step's first zones
     /// left them, to undo the corrections after them.
     zoned_end: Vec<Vector3<f64>>,
     zoned_velocity: Vec<Vector3<f64>>,
-    /// The last resolve corrected after zones and kept it (so far).
+    /// The resolve under way (or the last one) corrected after zones and
+    /// kept it (so far): its later passes are fewer
+    /// ([`after_zones::CORRECTION_PASSES`]) and its zones send their points
+    /// back to where the first zones left them.
     correction_kept: bool,
     /// Which points are the root of a zone being made rigid this round.
     zone_root: Vec<bool>,

@@ -53,7 +53,7 @@ impl CollisionPipeline {
     ) -> bool {
         let mut last_shortfall = f64::INFINITY;
         let passes =
-            if self.ws.frozen.is_empty() { self.settings.passes } else { CORRECTION_PASSES.min(self.settings.passes) };
+            if self.ws.correction_kept { CORRECTION_PASSES.min(self.settings.passes) } else { self.settings.passes };
         for _ in 0..passes {
             if self.ws.fresh {
                 self.detect(Detection::Proximity, Scope::All, report);
@@ -141,8 +141,6 @@ impl CollisionPipeline {
         ws.obstacle_impulse.resize(self.particles.len(), 0.0);
         ws.held.clear();
         ws.held.resize(cloth.start.len(), None);
-        ws.zoned.clear();
-        ws.zoned.resize(cloth.start.len(), false);
         ws.frozen.clear();
         ws.correction_kept = false;
         ws.fresh = true;

@@ -208,41 +208,38 @@ fn passes_stop_when_the_hook_undoes_them() {
 }
 
 /// After impact zones that left nothing crossing, the hook runs once more
-/// with the points the zones moved frozen: they end the step where the
-/// zones put them, whatever the passes after the correction do, and
-/// nothing crosses.
+/// and may move the points the zones moved (an edge between two of them is
+/// as stretched as the zones left it), all but those an obstacle carries;
+/// what it moves goes through the passes and zones again, so nothing
+/// crosses.
 #[test]
-fn the_zones_points_stay_where_the_zones_put_them_through_the_correction() {
+fn the_correction_after_zones_may_move_the_zones_points_and_nothing_crosses() {
     let (mut pipeline, n) = crumpled(true);
     pipeline.settings.pass_progress = 0.3;
     let (start, mut end) = (pipeline.ws.start[..n].to_vec(), pipeline.ws.end[..n].to_vec());
     let mut velocity = pipeline.ws.velocity[..n].to_vec();
     let (proposed_end, proposed_velocity) = (end.clone(), velocity.clone());
     let mass = vec![1e-3; n];
-    let mut frozen_at = Vec::new();
+    let mut zone_moved = Vec::new();
     let mut hook = |pass: PassState| match pass.stage {
-        ResponseStage::Impulses if pass.frozen.is_empty() => {
+        ResponseStage::Impulses if zone_moved.is_empty() => {
             pass.end.copy_from_slice(&proposed_end);
             pass.velocity.copy_from_slice(&proposed_velocity);
             true
         }
-        ResponseStage::AfterZones => {
-            frozen_at = pass.frozen.iter().map(|&i| (i as usize, pass.end[i as usize])).collect();
-            let free = (0..n).find(|i| !pass.frozen.contains(&(*i as u32)));
-            free.is_some_and(|i| {
-                pass.end[i].y += 1e-4;
-                true
-            })
+        ResponseStage::AfterZones if zone_moved.is_empty() => {
+            // Only the points carried by an obstacle stay frozen.
+            let frozen = |i: usize| pass.frozen.contains(&(i as u32));
+            zone_moved = (0..n).filter(|&i| pass.end[i] != proposed_end[i] && !frozen(i)).collect();
+            zone_moved.iter().for_each(|&i| pass.end[i].y += 1e-4);
+            !zone_moved.is_empty()
         }
         _ => false,
     };
     let cloth = ClothState { start: &start, end: &mut end, velocity: &mut velocity, mass: &mass };
     let report = pipeline.resolve(cloth, StepWindow { t0: 0.0, t1: 0.01 }, &mut hook);
     assert!(report.zone_rounds > 0 && report.zone_corrections > 0, "{report:?}");
-    assert!(!frozen_at.is_empty());
-    for (i, at) in frozen_at {
-        assert_eq!(end[i], at, "particle {i} left where the zones put it");
-    }
+    assert!(!zone_moved.is_empty(), "the zones moved free points, and they were not frozen");
     assert_eq!(report.unresolved, 0, "{report:?}");
 }
 

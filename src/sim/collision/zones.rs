@@ -71,12 +71,7 @@ impl CollisionPipeline {
                 self.carry_or_join(c, window);
             }
             self.group_zones(&crossings);
-            for &(_, i) in &self.ws.zone_members {
-                if let Some(zoned) = self.ws.zoned.get_mut(i as usize) {
-                    *zoned = true;
-                }
-            }
-            if !self.ws.frozen.is_empty() {
+            if self.ws.correction_kept {
                 self.revert_zones();
                 self.ws.contacts = crossings;
                 self.run_hook(after_round, ResponseStage::ImpactZones);

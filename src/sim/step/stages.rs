@@ -25,9 +25,8 @@ fn lap(clock: &mut Instant) -> Duration {
 const CLAMPED_WITHIN: f64 = 0.01;
 
 /// Newton iterations in which the strain projection of a correction after
-/// impact zones ([`ResponseStage::AfterZones`]) must meet the limits, with
-/// the zones' points fixed, for the correction (its passes and zones) to be
-/// made. The corrections that met them took 1-11 (`sleeve_elbow` 1-3,
+/// impact zones ([`ResponseStage::AfterZones`]) must meet the limits for
+/// the correction (its passes and zones) to be made. The corrections that met them took 1-11 (`sleeve_elbow` 1-3,
 /// `pinch_drag` 7-9, `needles` 7-11); on `pillars`, whose cloth is tented
 /// on cone tips, most ran to the 30 of a projection between passes and
 /// fell short, and the corrections made from their partial results cost
@@ -132,9 +131,9 @@ impl Simulator {
             // projections stretched `pillars`' cone apex further. After
             // impact zones (unless the step's projection gave up already:
             // there the zones after a correction did not clear, and cost
-            // `pillars` half its frame time) the rest of the cloth is moved
-            // after the zones' fixed points where that meets the limits
-            // soon, and every later pass's projection keeps what it gains.
+            // `pillars` half its frame time) the cloth, the zones' points
+            // with it, is projected again where that meets the limits soon,
+            // and every later pass's projection keeps what it gains.
             let pinned = !self.pins.is_empty();
             let pulled_apart = projection.stalled && pinned;
             let mut after_zones = false;
