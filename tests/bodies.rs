@@ -258,7 +258,7 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
 /// zones moves the cloth after them, and a step that still raises the
 /// cloth's own strain by more than 25 points would be retried shorter
 /// (tested below). Every edge with an end off the waistband stays under 6 %
-/// (3.85 % measured, no step retried; 3.4 % and two steps retried while the
+/// (3.85 % measured, no step retried; 2.1 % and one step retried while the
 /// correction kept the zones' points fixed; 26.5 % at frame 16 when the
 /// retry looked at the largest strain of all, the waistband's 13.7 %, and
 /// so missed a rise from 1 %), the waistband under 20 % (13.7 %).
