@@ -26,10 +26,12 @@ const CLAMPED_WITHIN: f64 = 0.01;
 
 /// Newton iterations in which the strain projection of a correction after
 /// impact zones ([`ResponseStage::AfterZones`]) must meet the limits for
-/// the correction (its passes and zones) to be made. The corrections that met them took 1-11 (`sleeve_elbow` 1-3,
-/// `pinch_drag` 7-9, `needles` 7-11); on `pillars`, whose cloth is tented
-/// on cone tips, most ran to the 30 of a projection between passes and
-/// fell short, and the corrections made from their partial results cost
+/// the correction (its passes and zones) to be made. The corrections that
+/// met them took 1-11 (`sleeve_elbow` 1-3, `pinch_drag` 7-9, `needles`
+/// 7-11, with the zones' points fixed in them); on `pillars`, whose cloth
+/// is tented on cone tips, most ran to the 30 of a projection between
+/// passes and fell short, and the corrections made from their partial
+/// results cost
 /// the bake 90 % of its frame time for no less strain; on `twist`, whose
 /// pins make the limits unreachable, corrections kept from partial results
 /// made its first second 85 % slower.
