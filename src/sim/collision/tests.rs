@@ -209,9 +209,9 @@ fn passes_stop_when_the_hook_undoes_them() {
 
 /// After impact zones that left nothing crossing, the hook runs once more
 /// and may move the points the zones moved (an edge between two of them is
-/// as stretched as the zones left it), all but those an obstacle carries;
-/// what it moves goes through the passes and zones again, so nothing
-/// crosses.
+/// as stretched as the zones left it), all but those an obstacle carries,
+/// which end the step where the zones put them; what it moves goes through
+/// the passes and zones again, so nothing crosses.
 #[test]
 fn the_correction_after_zones_may_move_the_zones_points_and_nothing_crosses() {
     let (mut pipeline, n) = crumpled(true);
@@ -220,7 +220,7 @@ fn the_correction_after_zones_may_move_the_zones_points_and_nothing_crosses() {
     let mut velocity = pipeline.ws.velocity[..n].to_vec();
     let (proposed_end, proposed_velocity) = (end.clone(), velocity.clone());
     let mass = vec![1e-3; n];
-    let mut zone_moved = Vec::new();
+    let (mut zone_moved, mut frozen_at) = (Vec::new(), Vec::new());
     let mut hook = |pass: PassState| match pass.stage {
         ResponseStage::Impulses if zone_moved.is_empty() => {
             pass.end.copy_from_slice(&proposed_end);
@@ -230,6 +230,7 @@ fn the_correction_after_zones_may_move_the_zones_points_and_nothing_crosses() {
         ResponseStage::AfterZones if zone_moved.is_empty() => {
             // Only the points carried by an obstacle stay frozen.
             let frozen = |i: usize| pass.frozen.contains(&(i as u32));
+            frozen_at = pass.frozen.iter().map(|&i| (i as usize, pass.end[i as usize])).collect();
             zone_moved = (0..n).filter(|&i| pass.end[i] != proposed_end[i] && !frozen(i)).collect();
             zone_moved.iter().for_each(|&i| pass.end[i].y += 1e-4);
             !zone_moved.is_empty()
@@ -240,6 +241,10 @@ fn the_correction_after_zones_may_move_the_zones_points_and_nothing_crosses() {
     let report = pipeline.resolve(cloth, StepWindow { t0: 0.0, t1: 0.01 }, &mut hook);
     assert!(report.zone_rounds > 0 && report.zone_corrections > 0, "{report:?}");
     assert!(!zone_moved.is_empty(), "the zones moved free points, and they were not frozen");
+    assert!(!frozen_at.is_empty(), "an obstacle carried points");
+    for (i, at) in frozen_at {
+        assert_eq!(end[i], at, "carried particle {i} left where the zones put it");
+    }
     assert_eq!(report.unresolved, 0, "{report:?}");
 }
 
