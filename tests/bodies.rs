@@ -257,20 +257,21 @@ fn skirt_walk_bakes_with_the_skirt_outside_the_body_at_every_frame() {
 /// between passes take what they pushed back, the correction after impact
 /// zones moves the cloth after them, and a step that still raises the
 /// cloth's own strain by more than 25 points would be retried shorter
-/// (tested below). Every edge with an end off the waistband stays under 6 %
-/// (3.85 % measured, no step retried; 2.1 % and one step retried while the
-/// correction kept the zones' points fixed; 26.5 % at frame 16 when the
-/// retry looked at the largest strain of all, the waistband's 13.7 %, and
-/// so missed a rise from 1 %), the waistband under 20 % (13.7 %).
+/// (tested below). Every edge with an end off the waistband stays within its
+/// limit and a point (1.01 % measured; 3.85 % while the projections took the
+/// waistband's edges, stretched by the body and out of their reach, for a
+/// stall; 26.5 % at frame 16 when the retry looked at the largest strain of
+/// all, the waistband's 13.7 %, and so missed a rise from 1 %), the
+/// waistband under 20 % (13.7 %).
 #[test]
-fn fast_body_keeps_the_skirt_outside_the_body_and_the_cloth_within_6_percent() {
+fn fast_body_keeps_the_skirt_outside_the_body_and_the_cloth_within_its_limit() {
     let scene = drape::scene::Scene::load(&repo("assets/scenes/fast_body.toml")).unwrap();
     let mut baker = drape::bake::Baker::new(&scene).unwrap();
     while baker.frame() < scene.frame_count {
         let record = baker.advance().unwrap_or_else(|e| panic!("{e}"));
         let i = &record.intersections;
         assert_eq!((i.cloth_pairs, i.collider_pairs, i.penetrating_vertices), (0, 0, 0), "frame {}", record.frame);
-        assert!(record.max_free_strain < 0.06, "frame {}: {:.1} %", record.frame, record.max_free_strain * 100.0);
+        assert!(record.max_free_strain < 0.0201, "frame {}: {:.2} %", record.frame, record.max_free_strain * 100.0);
         assert!(record.max_strain < 0.2, "frame {}: {:.1} %", record.frame, record.max_strain * 100.0);
     }
 }

@@ -123,6 +123,8 @@ struct ChunkSummary {
     largest_movable_excess: f64,
     /// `Σ_e max(0, C_e / L_e)²` over the chunk's edges, unitless.
     squared_excess: f64,
+    /// The same sum over the chunk's movable edges only, unitless.
+    squared_movable_excess: f64,
 }
 
 /// Every constrained edge linearised at the current positions, with each
@@ -221,6 +223,13 @@ impl LinearisedEdges {
     pub fn squared_excess(&self) -> f64 {
         self.summaries.iter().map(|s| s.squared_excess).sum()
     }
+
+    /// [`Self::squared_excess`] over the movable edges only, unitless: what
+    /// a Newton step can reduce at all (an edge between two pins stretched
+    /// by them keeps its share whatever the step does).
+    pub fn squared_movable_excess(&self) -> f64 {
+        self.summaries.iter().map(|s| s.squared_movable_excess).sum()
+    }
 }
 
 /// Linearises the chunk of edges from `first` into `states`, `movable`
@@ -248,6 +257,7 @@ fn summarise(first: usize, states: &[EdgeState], movable: &[bool], edges: &EdgeS
         let excess = if state.violation > 0.0 { state.violation / edges.rest_length[first + k] } else { 0.0 };
         summary.squared_excess += excess * excess;
         if movable {
+            summary.squared_movable_excess += excess * excess;
             summary.largest_movable_excess = summary.largest_movable_excess.max(excess);
         }
     }
@@ -350,5 +360,22 @@ mod tests {
         // The rungs (Z) are unstretched, the rails (X) 12 % long against a 10 % limit.
         assert!(!linearised.near[3] && linearised.near[0]);
         assert!(linearised.largest_movable_excess() > 0.015);
+    }
+
+    /// An edge whose ends are both pinned counts in the squared excess but
+    /// not in the movable one; every other edge counts in both.
+    #[test]
+    fn the_movable_squared_excess_leaves_out_edges_between_two_pins() {
+        let (edges, x) = stretched_strip(3);
+        let mass = vec![0.01; x.len()];
+        let mut constraints = vec![Constraint::Free; x.len()];
+        let [a, b] = edges.ends[0];
+        (constraints[a as usize], constraints[b as usize]) = (Constraint::Fixed, Constraint::Fixed);
+        let mut linearised = LinearisedEdges::default();
+        linearised.linearise_all(&edges, Particles { x: &x, constraints: &constraints, mass: &mass });
+        let pinned_excess = ((x[a as usize] - x[b as usize]).norm() - edges.max_length[0]) / edges.rest_length[0];
+        assert!(pinned_excess > 0.015, "the pinned rail is over its limit: {pinned_excess}");
+        let (all, movable) = (linearised.squared_excess(), linearised.squared_movable_excess());
+        assert!((all - movable - pinned_excess * pinned_excess).abs() < 1e-15, "{all} vs {movable}");
     }
 }

@@ -39,7 +39,9 @@ impl StrainLimits {
         let holding = !held.is_empty();
         let constraints: &[Constraint] = if holding { held } else { state.constraints };
         self.linearise_all(state.x, constraints, state.mass);
-        let initial = self.ws.linearised.squared_excess();
+        // Progress is judged on the movable edges' excess: the edges between
+        // two pins keep theirs whatever a step does.
+        let initial = self.ws.linearised.squared_movable_excess();
         let mut latest = initial;
         // Stalled short of half the starting excess: the limits are out of reach.
         let unreachable = |latest: f64| latest > UNREACHABLE_SHARE * initial;
@@ -79,9 +81,12 @@ impl StrainLimits {
             let constraints: &[Constraint] = if holding { held } else { state.constraints };
             report.newton_iterations += 1;
             self.gather_active(Compact::Multiplier);
+            // After the releases: a released hold makes its edges movable.
+            let movable_before = self.ws.linearised.squared_movable_excess();
             let after = self.line_search(before, constraints, state);
-            stalled = if after > STALL_RATIO * before { stalled + 1 } else { 0 };
-            latest = after;
+            let movable_after = self.ws.linearised.squared_movable_excess();
+            stalled = if movable_after > STALL_RATIO * movable_before { stalled + 1 } else { 0 };
+            latest = movable_after;
             if after < before {
                 self.ws.failed_holds = None;
             } else if self.repeats_failed_search() {
