@@ -99,8 +99,9 @@ const STALL_RATIO: f64 = 0.9;
 const STALLED_ITERATIONS: u32 = 3;
 
 /// A stalled projection counts as unreachable only if it has not removed at
-/// least half of the movable edges' squared excess it started with; one that has (a hard
-/// impact, far from the limits) is slow, not stuck, and goes on.
+/// least half of the movable edges' squared excess it started with; one
+/// that has (a hard impact, far from the limits) is slow, not stuck, and
+/// goes on.
 const UNREACHABLE_SHARE: f64 = 0.5;
 
 /// Conjugate-gradient iterations of one multiplier solve at most.
