@@ -31,10 +31,9 @@ const CLAMPED_WITHIN: f64 = 0.01;
 /// 7-11, with the zones' points fixed in them); on `pillars`, whose cloth
 /// is tented on cone tips, most ran to the 30 of a projection between
 /// passes and fell short, and the corrections made from their partial
-/// results cost
-/// the bake 90 % of its frame time for no less strain; on `twist`, whose
-/// pins make the limits unreachable, corrections kept from partial results
-/// made its first second 85 % slower.
+/// results cost the bake 90 % of its frame time for no less strain; on
+/// `twist`, whose pins make the limits unreachable, corrections kept from
+/// partial results made its first second 85 % slower.
 const CORRECTION_NEWTON_ITERATIONS: u32 = 12;
 
 impl Simulator {
