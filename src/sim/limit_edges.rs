@@ -103,6 +103,55 @@ impl EdgeSet {
         let max_length = vec![f64::INFINITY; ends.len()];
         EdgeSet { ends, rest_length, max_length, incidence }
     }
+
+    /// The most edges a path between two particles must cross, over every
+    /// connected piece of cloth (a double sweep: from a particle of each
+    /// piece to the one furthest from it, then to the one furthest from
+    /// that; exact on a grid, a lower bound elsewhere). An `n × n` grid's
+    /// warp and weft span `2 (n − 1)`.
+    pub fn span_in_edges(&self) -> u32 {
+        let n = self.incidence.start.len() - 1;
+        let mut distance = vec![u32::MAX; n];
+        let mut queue = Vec::with_capacity(n);
+        let mut span = 0;
+        for first in 0..n {
+            if distance[first] != u32::MAX {
+                continue;
+            }
+            let (furthest, _) = self.sweep(first, &mut distance, &mut queue);
+            for &v in &queue {
+                distance[v as usize] = u32::MAX;
+            }
+            let (_, across) = self.sweep(furthest, &mut distance, &mut queue);
+            span = span.max(across);
+        }
+        span
+    }
+
+    /// A breadth-first search from `from` over unvisited particles
+    /// (`u32::MAX` in `distance`), which it marks with their distance in
+    /// edges; `queue` ends holding the particles it reached. Returns the
+    /// furthest particle and its distance.
+    fn sweep(&self, from: usize, distance: &mut [u32], queue: &mut Vec<u32>) -> (usize, u32) {
+        queue.clear();
+        queue.push(from as u32);
+        distance[from] = 0;
+        let mut next = 0;
+        while next < queue.len() {
+            let v = queue[next] as usize;
+            next += 1;
+            for (e, _) in self.incidence.of(v) {
+                let [a, b] = self.ends[e];
+                let other = (if a as usize == v { b } else { a }) as usize;
+                if distance[other] == u32::MAX {
+                    distance[other] = distance[v] + 1;
+                    queue.push(other as u32);
+                }
+            }
+        }
+        let last = queue[queue.len() - 1] as usize;
+        (last, distance[last])
+    }
 }
 
 /// The particles, as a linearisation reads them.
@@ -302,6 +351,27 @@ mod tests {
         let x =
             (0..2 * (n + 1)).map(|k| Vector3::new(1.12 * (k / 2) as f64, 0.1 * ((k / 2) as f64).sin(), (k % 2) as f64));
         (edges, x.collect())
+    }
+
+    /// The warp and weft of an `n × n` grid (no diagonals), unit rest lengths.
+    fn warp_and_weft(n: usize) -> EdgeSet {
+        let (ends, _) = crate::sim::test_grid::quad_grid(n);
+        let ends: Vec<[u32; 2]> = ends.into_iter().filter(|[a, b]| b - a == 1 || (b - a) as usize == n).collect();
+        let rest_length = vec![1.0; ends.len()];
+        EdgeSet::new(n * n, ends, rest_length)
+    }
+
+    #[test]
+    fn a_grid_spans_its_two_sides_and_a_second_piece_counts_on_its_own() {
+        assert_eq!(warp_and_weft(9).span_in_edges(), 16);
+        assert_eq!(warp_and_weft(1).span_in_edges(), 0);
+        // A 3 × 3 grid and, apart from it, a strip of 6 particles.
+        let mut two = warp_and_weft(3);
+        let strip: Vec<[u32; 2]> = (9..14).map(|v| [v, v + 1]).collect();
+        let mut ends = two.ends.clone();
+        ends.extend(strip);
+        two = EdgeSet::new(15, ends.clone(), vec![1.0; ends.len()]);
+        assert_eq!(two.span_in_edges(), 5);
     }
 
     #[test]

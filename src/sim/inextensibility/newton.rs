@@ -45,7 +45,7 @@ impl StrainLimits {
         let mut latest = initial;
         // Stalled short of half the starting excess: the limits are out of reach.
         let unreachable = |latest: f64| latest > UNREACHABLE_SHARE * initial;
-        let own = if holding { HOLDING_NEWTON_ITERATIONS } else { NEWTON_ITERATIONS };
+        let own = self.newton_iterations[usize::from(holding)];
         let most = self.newton_budget.map_or(own, |budget| budget.min(own));
         for _ in 0..=most {
             report.excess_strain = self.update_active_set();

@@ -492,3 +492,28 @@ fn only_a_kept_projection_changes_the_standing_of_the_step() {
     kept.add(&refused);
     assert_eq!((kept.newton_iterations, kept.excess_strain, kept.abandoned), (15, 0.5, true));
 }
+
+/// The Newton budgets hold up to the span they were set on and grow in
+/// proportion beyond it.
+#[test]
+fn newton_budgets_grow_with_the_cloths_span_beyond_a_128_grid() {
+    assert_eq!(scaled_budget(30, 0), 30);
+    assert_eq!(scaled_budget(30, 254), 30, "a 128 × 128 grid keeps the budget it was set on");
+    assert_eq!(scaled_budget(30, 510), 61, "a 256 × 256 grid: 30 · 510 / 254 = 60.2");
+    assert_eq!(scaled_budget(60, 510), 121);
+    assert_eq!(scaled_budget(30, u32::MAX), 507_279_602, "⌈30 · (2³² − 1) / 254⌉, without overflow");
+}
+
+/// A cloth's Newton budgets follow its widest piece: a 64 × 64 grid (126
+/// edges across) keeps 30 and 60; a strip of 400 × 2 particles beside it
+/// (400 edges across) gets ⌈30 · 400 / 254⌉ = 48 and 95.
+#[test]
+fn the_widest_piece_of_cloth_sets_the_newton_budgets() {
+    let square = generate::grid(1.0, 64);
+    let limits = StrainLimits::new(&Cloth::new([(&square, cotton())]), StrainLimiting::Projection);
+    assert_eq!(limits.expect("cotton has a limit").newton_iterations, [30, 60]);
+    let strip = generate::rectangle(4.0, 0.01, 400, 2);
+    let both = Cloth::new([(&square, cotton()), (&strip, cotton())]);
+    let limits = StrainLimits::new(&both, StrainLimiting::Projection).expect("cotton has a limit");
+    assert_eq!(limits.newton_iterations, [48, 95]);
+}
