@@ -366,12 +366,10 @@ mod tests {
         assert_eq!(warp_and_weft(9).span_in_edges(), 16);
         assert_eq!(warp_and_weft(1).span_in_edges(), 0);
         // A 3 × 3 grid and, apart from it, a strip of 6 particles.
-        let mut two = warp_and_weft(3);
-        let strip: Vec<[u32; 2]> = (9..14).map(|v| [v, v + 1]).collect();
-        let mut ends = two.ends.clone();
-        ends.extend(strip);
-        two = EdgeSet::new(15, ends.clone(), vec![1.0; ends.len()]);
-        assert_eq!(two.span_in_edges(), 5);
+        let mut ends = warp_and_weft(3).ends;
+        ends.extend((9..14).map(|v| [v, v + 1]));
+        let rest_length = vec![1.0; ends.len()];
+        assert_eq!(EdgeSet::new(15, ends, rest_length).span_in_edges(), 5);
     }
 
     #[test]
