@@ -71,8 +71,12 @@ fn pins_pulled_apart_make_the_limits_unreachable_and_say_so() {
     let (frame, worst) = summary.limits_unreachable.expect("the worst pair is kept");
     assert_eq!(frame, records.last().map(|r| r.frame).unwrap_or_default());
     assert!(worst.to_string().starts_with("limits unreachable: pins "), "{worst}");
-    // Where the limits were reachable, the cloth held them.
+    // Beyond what the pins force, the cloth held the limits: where they were
+    // reachable, and where the pins stretched it (uniformly, as far as they must).
     assert!(summary.max_free_strain_reachable <= 0.02, "{:.2} %", summary.max_free_strain_reachable * 100.0);
+    let last = records.last().expect("frames were baked");
+    assert!(last.max_free_strain > 0.2, "the pull stretches the cloth {:.2} %", last.max_free_strain * 100.0);
+    assert!(last.free_strain_beyond_pins() <= 0.02, "{:.2} % beyond the pins", last.free_strain_beyond_pins() * 100.0);
 }
 
 /// A cloth whose pins move apart less than its limit allows never reports

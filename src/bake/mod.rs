@@ -85,6 +85,19 @@ pub struct FrameRecord {
     pub intersections: Intersections,
 }
 
+impl FrameRecord {
+    /// The frame's free strain beyond what its pins force: `max_free_strain`
+    /// less the least strain over the limit that pins further apart than
+    /// the cloth between them may reach force on some edge
+    /// ([`Unreachable::forced_strain`]), unitless. What the solver answers
+    /// for: within the limit and a point where it meets the limits as far as
+    /// the pins allow. (Pins 1 cm beyond reach do not explain an edge at
+    /// seven times its length.)
+    pub fn free_strain_beyond_pins(&self) -> f64 {
+        self.max_free_strain - self.limits_unreachable.map_or(0.0, |u| u.forced_strain)
+    }
+}
+
 /// Runs a scene one frame at a time, checking every frame with the
 /// independent intersection checker.
 pub struct Baker {

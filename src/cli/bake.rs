@@ -152,10 +152,11 @@ fn print_bake_summary(summary: &BakeSummary, scene: &Scene, out: &Path) {
     if let Some((frame, worst)) = &summary.limits_unreachable {
         println!(
             "{} of {} frames end with the strain limits out of reach of the pins; the worst, frame {frame}: {worst}; \
-             where they were reachable, the largest strain not between pins is {:.2} %",
+             beyond what the pins force, the largest strain not between pins is {:.2} % (frame {})",
             summary.frames_limits_unreachable,
             summary.frames - 1,
-            summary.max_free_strain_reachable * 100.0
+            summary.max_free_strain_reachable * 100.0,
+            summary.max_free_strain_reachable_frame
         );
     }
     println!(
