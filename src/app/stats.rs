@@ -5,7 +5,9 @@ use crate::bake::FrameRecord;
 
 /// The overlay's first line, in plain words: the frame and its time, how
 /// fast the simulation runs (frames of animation per second of wall time,
-/// while it runs), the intersections and the largest stretch of the cloth.
+/// while it runs), the intersections and the largest stretch of the cloth,
+/// with what of it the pins force where they are further apart than the
+/// cloth between them may reach.
 pub fn summary_line(record: &FrameRecord, fps: f64, live_rate: Option<f64>) -> String {
     let mut parts = vec![format!("frame {} · {:.2} s", record.frame, record.frame as f64 / fps)];
     if let Some(rate) = live_rate {
@@ -17,7 +19,11 @@ pub fn summary_line(record: &FrameRecord, fps: f64, live_rate: Option<f64>) -> S
         n => format!("{n} intersections"),
     });
     if record.frame > 0 {
-        parts.push(format!("stretch {:.2} %", record.max_free_strain.min(record.max_strain) * 100.0));
+        let mut stretch = format!("stretch {:.2} %", record.max_free_strain.min(record.max_strain) * 100.0);
+        if let Some(unreachable) = &record.limits_unreachable {
+            stretch += &format!(" (pins out of reach force {:.2} points)", unreachable.forced_strain * 100.0);
+        }
+        parts.push(stretch);
     }
     parts.join(" · ")
 }
@@ -149,6 +155,11 @@ mod tests {
             limits_unreachable: Some(unreachable),
             ..Default::default()
         };
+        let first = summary_line(&record, 30.0, None);
+        assert_eq!(
+            first,
+            "frame 35 · 1.17 s · 0 intersections · stretch 601.00 % (pins out of reach force 0.12 points)"
+        );
         let line = &overlay_lines(&record)[4];
         assert!(line.starts_with("limits unreachable: pins 0 and 4032 are 0.0012 m further apart"), "{line}");
         assert!(
